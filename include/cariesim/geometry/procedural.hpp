@@ -1,0 +1,84 @@
+#pragma once
+/// Procedural shapes, so the default scene needs no files (DESIGN.md §3). Every mesh is closed,
+/// manifold and wound outward. Object frames: x mesio-distal, y bucco-lingual, z occlusal (up).
+
+#include <cstdint>
+#include <vector>
+
+#include "cariesim/geometry/mesh.hpp"
+
+namespace cariesim {
+
+/// A box with the given edge lengths (mm), centred on the origin in x and y, top face at z = 0.
+TriangleMesh make_cuboid(const Vec3& size_mm);
+
+/// A lower molar. Frame origin: centre of the crown at the cemento-enamel junction; the crown spans
+/// z in [0, crown_height], the roots go down to -root_length.
+struct MolarParams {
+  double mesiodistal = 11.0;   ///< mm, crown length along x
+  double buccolingual = 10.0;  ///< mm, crown width along y
+  double crown_height = 7.5;   ///< mm
+  double root_length = 13.0;   ///< mm
+  int cusps = 5;               ///< 4 or 5
+  int roots = 2;               ///< mesial and distal
+  double resolution = 0.15;    ///< mm, target edge length of the surface mesh
+};
+TriangleMesh make_molar(const MolarParams& params = {});
+
+/// A lower premolar (two cusps, one root), same frame conventions.
+struct PremolarParams {
+  double mesiodistal = 7.0;   ///< mm
+  double buccolingual = 8.0;  ///< mm
+  double crown_height = 8.0;  ///< mm
+  double root_length = 14.0;  ///< mm
+  double resolution = 0.15;   ///< mm
+};
+TriangleMesh make_premolar(const PremolarParams& params = {});
+
+/// The gingiva around a row of teeth: a band following a polyline (mm, world xy) at the cervical level.
+struct GingivaParams {
+  std::vector<Vec3> path;     ///< mm, centre line of the arch segment at the gingival margin
+  double width = 14.0;        ///< mm, bucco-lingual width of the band
+  double height = 4.0;        ///< mm, thickness below the margin
+  double resolution = 0.5;    ///< mm
+};
+TriangleMesh make_gingiva_band(const GingivaParams& params);
+
+/// A tongue: a flattened, rounded body (mm) centred on the origin, long axis along x.
+struct TongueParams {
+  double length = 50.0;  ///< mm
+  double width = 45.0;   ///< mm
+  double height = 15.0;  ///< mm
+  double resolution = 1.0;  ///< mm
+};
+TriangleMesh make_tongue(const TongueParams& params = {});
+
+/// The dental explorer, in the tool frame: origin at the centre of the tip sphere, +z along the tip
+/// segment toward the handle. Made of a handle, a tapered shank and a curved working end.
+struct ExplorerParams {
+  double tip_radius = 0.05;        ///< mm
+  double tip_segment = 2.5;        ///< mm, straight part from the tip along +z
+  double working_end_radius = 0.45;  ///< mm, wire radius where the working end meets the shank
+  double bend_radius = 6.0;        ///< mm, radius of the curved working end
+  double bend_angle = 1.75;        ///< rad, how far the working end curves
+  double shank_length = 22.0;      ///< mm
+  double shank_radius = 1.0;       ///< mm, at the handle end
+  double handle_length = 90.0;     ///< mm
+  double handle_radius = 4.5;      ///< mm
+};
+
+/// One sphere of the tool's chain.
+struct ToolSphere {
+  Vec3 center;    ///< mm, tool frame
+  double radius;  ///< mm
+  uint16_t segment;  ///< 0 tip segment, 1 working end, 2 shank, 3 handle
+};
+
+/// The explorer as a chain of spheres along its centre line, dense at the tip (consecutive spheres
+/// overlap so that the chain has no gap deeper than `max_gap` mm along its surface).
+std::vector<ToolSphere> make_explorer_spheres(const ExplorerParams& params = {}, double max_gap = 0.01);
+
+/// A display mesh of the explorer (tube along the centre line), tool frame.
+TriangleMesh make_explorer_mesh(const ExplorerParams& params = {});
+
+}  // namespace cariesim

@@ -1,0 +1,102 @@
+#pragma once
+/// The haptic step: `step(model, state, input) -> output` (DESIGN.md §4). A pure function of its
+/// inputs, so runs are deterministic and replayable. It allocates nothing, takes no lock and does no
+/// I/O. Bad input (non-finite pose, a jump of centimetres, a wedged tool, contact overflow) yields a
+/// finite, bounded output with flags set, never a crash, NaN, or a tool inside rigid tissue.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "cariesim/render/model.hpp"
+
+namespace cariesim {
+
+/// Interaction state (paper Fig. 4).
+enum class InteractionState : uint8_t { Free, Sliding, Inserting, Extracting };
+const char* state_name(InteractionState s);
+
+/// Output flags.
+enum StepFlag : uint32_t {
+  kFlagNonFiniteInput = 1u << 0,  ///< the haptic pose was NaN/inf; the last good one was used
+  kFlagJumpLimited = 1u << 1,     ///< the haptic tool moved further than max_jump in one step
+  kFlagInfeasible = 1u << 2,      ///< the constraints contradicted each other; the tool held still
+  kFlagContactOverflow = 1u << 3, ///< more sphere pairs than the contact capacity
+  kFlagForceClamped = 1u << 4,    ///< force limited to the device maximum
+  kFlagTorqueClamped = 1u << 5,   ///< torque limited to the device maximum
+  kFlagLagging = 1u << 6,         ///< sub-step budget exhausted; the graphic tool is catching up
+  kFlagQpRowsFull = 1u << 7,      ///< more constraint rows than the QP capacity
+};
+
+/// One contact as reported to the viewer / logs (the strongest few).
+struct ContactReport {
+  Vec3 point;     ///< mm, world
+  Vec3 normal;    ///< unit, world (out of the object)
+  double force;   ///< N, normal force magnitude
+  uint16_t object;
+  uint16_t tool_leaf;
+};
+inline constexpr int kMaxReportedContacts = 16;
+
+/// The virtual tunnel's five spheres (paper Fig. 5): [0] on the axis below the tip, [1..4] around
+/// the head. Valid while penetrating.
+struct TunnelSpheres {
+  std::array<Vec3, 5> centers;    ///< mm, world
+  std::array<double, 5> radii{};  ///< mm
+  bool active = false;
+};
+
+struct HapticInput {
+  Pose pose;           ///< the haptic tool (device) pose, tool frame in world
+  double dt = 0.001;   ///< s, servo period
+};
+
+struct StepOutput {
+  Pose graphic;                   ///< the constrained proxy
+  Pose haptic;                    ///< the (sanitised) haptic pose used
+  Vec3 force = Vec3::Zero();      ///< N, to render on the device, at the tool-frame origin
+  Vec3 torque = Vec3::Zero();     ///< N·mm, to render on the device, about the tool-frame origin
+  InteractionState state = InteractionState::Free;
+  double depth = 0.0;             ///< mm, insertion depth along the tunnel axis
+  int lesion = -1;                ///< lesion being probed (penetration) or touched by the tip
+  int contacts = 0;               ///< constraint rows from sphere pairs in the final solve
+  uint32_t flags = 0;             ///< StepFlag bits
+  double normal_force = 0.0;      ///< N, total normal contact force (Fig. 16)
+  double soft_tissue_force = 0.0; ///< N, largest normal force on gingiva/tongue (damage events)
+  int tip_tissue = -1;            ///< Tissue of the tip's contact, -1 when the tip touches nothing
+  double step_us = 0.0;           ///< µs, wall time of this step
+  int substeps = 0;
+  std::array<ContactReport, kMaxReportedContacts> contact_reports{};
+  int contact_report_count = 0;
+  TunnelSpheres tunnel;
+};
+
+struct StateImpl;  // scratch and history; see render/state.cpp
+
+/// Everything the step carries from one cycle to the next, plus scratch reserved at creation.
+class State {
+ public:
+  /// Creates a state for `model` with the graphic tool at `start` if it is collision-free, else at
+  /// model.tool_home.
+  State(const Model& model, const Pose& start);
+  ~State();
+  State(State&&) noexcept;
+  State& operator=(State&&) noexcept;
+
+  [[nodiscard]] const Pose& graphic() const;
+  [[nodiscard]] InteractionState interaction() const;
+  [[nodiscard]] double depth() const;
+  /// True when this state was made for `model` (same object and tool-leaf counts).
+  [[nodiscard]] bool built_for(const Model& model) const;
+
+  StateImpl& impl() { return *impl_; }
+  [[nodiscard]] const StateImpl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<StateImpl> impl_;
+};
+
+/// Advances the state by one servo cycle.
+StepOutput step(const Model& model, State& state, const HapticInput& input);
+
+}  // namespace cariesim

@@ -1,0 +1,1 @@
+// Keeps a static library target valid while its module folder has no sources yet.
