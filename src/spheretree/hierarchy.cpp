@@ -111,10 +111,20 @@ Ball enclose(const Ball* balls, int n) {
   return best;
 }
 
+// The exact double value of a float vector, read back through volatile storage: GCC 12's SLP
+// vectorizer at -O2 reuses the unrounded doubles for a double->float->double round trip in the
+// same function (seen on Debian's g++ 12.2), which would fit the radius around the wrong centre.
+Vec3 widen_exactly(const Vec3f& v) {
+  const volatile float x = v.x();
+  const volatile float y = v.y();
+  const volatile float z = v.z();
+  return {x, y, z};
+}
+
 // Stores `b` as a float sphere that still holds every ball after rounding the centre.
 void store_conservatively(SphereNode& node, const Ball& b, const Ball* balls, int n) {
   node.center = b.c.cast<float>();
-  const double r = enclosing_radius(node.center.cast<double>(), balls, n);
+  const double r = enclosing_radius(widen_exactly(node.center), balls, n);
   float rf = static_cast<float>(r);
   if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
   node.radius = rf;

@@ -51,7 +51,7 @@ std::vector<LeafSphere> sheet_leaves(std::size_t side) {
 // Structural checks: every node reached once from the root, children inside their parents (within
 // `slack` mm), every leaf reached once and its node carries the leaf's data unchanged.
 void expect_valid(const SphereTree& tree, std::span<const LeafSphere> leaves, int branching,
-                  double slack = 1e-5) {
+                  double slack = 1e-9) {
   ASSERT_EQ(tree.leaf_count(), leaves.size());
   ASSERT_EQ(tree.leaf_depth.size(), leaves.size());
   std::vector<int> node_seen(tree.nodes.size(), 0);
