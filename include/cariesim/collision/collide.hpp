@@ -20,24 +20,24 @@ enum class ObjectKind : uint8_t { Rigid, Soft };
 
 /// One collidable object: a sphere tree in world coordinates and what it is.
 struct CollisionObject {
-  std::string name;                 ///< e.g. "tooth46/healthy", "tooth46/lesion1"
-  SphereTree tree;                  ///< world coordinates (mm)
+  std::string name;  ///< e.g. "tooth46/healthy", "tooth46/lesion1"
+  SphereTree tree;   ///< world coordinates (mm)
   ObjectKind kind = ObjectKind::Rigid;
-  int16_t lesion = -1;              ///< lesion index when this is a caries tree, else -1
-  int16_t host = -1;                ///< for a caries tree: index of the healthy object of the same tooth
-  int16_t scene_object = -1;        ///< index of the scene object this tree came from
+  int16_t lesion = -1;        ///< lesion index when this is a caries tree, else -1
+  int16_t host = -1;          ///< for a caries tree: index of the healthy object of the same tooth
+  int16_t scene_object = -1;  ///< index of the scene object this tree came from
 };
 
 /// One sphere pair closer than the query margin.
 struct Contact {
-  Vec3 normal;             ///< unit, from the object sphere's centre toward the tool sphere's centre
-  Vec3 point;              ///< mm, world, on the object sphere's surface along `normal`
-  Vec3 lever;              ///< mm, world, tool sphere centre minus tool-frame origin
-  double gap = 0.0;        ///< mm, |c_t - c_o| - r_t - r_o (negative = overlap)
-  uint32_t object_node = 0;   ///< node index in the object's tree
-  uint16_t tool_leaf = 0;     ///< leaf index in the tool's tree (0 = the tip)
-  uint16_t object = 0;        ///< index into the object list
-  uint16_t material = 0;      ///< the object leaf's material
+  Vec3 normal;               ///< unit, from the object sphere's centre toward the tool sphere's centre
+  Vec3 point;                ///< mm, world, on the object sphere's surface along `normal`
+  Vec3 lever;                ///< mm, world, tool sphere centre minus tool-frame origin
+  double gap = 0.0;          ///< mm, |c_t - c_o| - r_t - r_o (negative = overlap)
+  uint32_t object_node = 0;  ///< node index in the object's tree
+  uint16_t tool_leaf = 0;    ///< leaf index in the tool's tree (0 = the tip)
+  uint16_t object = 0;       ///< index into the object list
+  uint16_t material = 0;     ///< the object leaf's material
   uint16_t pad = 0;
 };
 
@@ -54,6 +54,8 @@ class ContactSet {
   [[nodiscard]] std::span<const Contact> view() const { return {items_.data(), size_}; }
   /// Adds a pair, or replaces the worst (largest gap) one when full and `c` is better.
   void push(const Contact& c);
+  /// Flags the set as incomplete without adding a pair (a query had to drop work it could not hold).
+  void mark_overflow() { overflow_ = true; }
 
  private:
   std::vector<Contact> items_;  // reserved once; never grows
@@ -68,19 +70,21 @@ class PlacedTool {
   explicit PlacedTool(const SphereTree& tool);
   /// Transforms every tool node by `pose`; `margin` inflates every leaf (and its ancestors).
   void place(const Pose& pose, double margin);
-  /// As above with a per-leaf margin table (size = tool leaf count).
+  /// As above with a per-leaf margin table (size = tool leaf count; an empty table keeps the margins
+  /// of the previous call). Negative or non-finite margins count as zero.
   void place(const Pose& pose, std::span<const double> leaf_margin);
   [[nodiscard]] const SphereTree& tree() const { return *tool_; }
   [[nodiscard]] const Pose& pose() const { return pose_; }
-  [[nodiscard]] std::span<const Vec3> centers() const { return centers_; }   ///< world, per node
-  [[nodiscard]] std::span<const double> radii() const { return radii_; }     ///< per node, inflated
+  [[nodiscard]] std::span<const Vec3> centers() const { return centers_; }             ///< world, per node
+  [[nodiscard]] std::span<const double> radii() const { return radii_; }               ///< per node, inflated
+  [[nodiscard]] std::span<const double> leaf_margins() const { return leaf_margin_; }  ///< mm, per leaf
 
  private:
   const SphereTree* tool_;
   Pose pose_;
   std::vector<Vec3> centers_;
-  std::vector<double> radii_;       // inflated radii used for pruning and the pair test
-  std::vector<double> leaf_margin_; // per leaf
+  std::vector<double> radii_;        // inflated radii used for pruning and the pair test
+  std::vector<double> leaf_margin_;  // per leaf
 };
 
 /// Which objects take part in a query (bit i = object i); at most 64 objects.

@@ -1,0 +1,265 @@
+#include "cariesim/collision/collide.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "cariesim/common/error.hpp"
+
+namespace cariesim {
+
+namespace {
+
+// Pending node pairs of a dual traversal. Depth first, each split pushes at most 7 siblings that wait
+// while the first is explored, so a stack of this size holds any pair of trees whose levels sum to
+// 146 or less (balanced trees of 10^6 leaves have about 10 levels each).
+constexpr int kStackSize = 1024;
+// mm; node pairs are kept when they overlap within this slack, so rounding never prunes a pair.
+constexpr double kPruneSlack = 1e-6;
+// mm; below this centre distance the direction between two spheres is taken as undefined.
+constexpr double kCoincident = 1e-12;
+
+struct NodePair {
+  uint32_t tool;
+  uint32_t object;
+};
+
+// Everything the traversal of one object reads, as raw pointers (no bounds checks in the hot loop).
+struct Query {
+  const SphereNode* tool_nodes;    // tool frame radii (true), leaf ids
+  const Vec3* tool_centers;        // world
+  const double* tool_radii;        // inflated
+  const double* leaf_margin;       // per tool leaf
+  const SphereNode* object_nodes;  // world
+  Vec3 origin;                     // tool-frame origin in the world
+  Vec3 fallback_normal;            // used when two centres coincide
+  uint16_t object;
+};
+
+// True when a tool node (inflated) and an object node overlap, within the pruning slack.
+inline bool overlaps(const Query& q, uint32_t t, uint32_t o) {
+  const SphereNode& on = q.object_nodes[o];
+  const Vec3 d = q.tool_centers[t] - on.center.cast<double>();
+  const double reach = q.tool_radii[t] + static_cast<double>(on.radius) + kPruneSlack;
+  return d.squaredNorm() < reach * reach;
+}
+
+// The exact leaf-pair test with the true radii; pushes a contact when the gap is below the tool
+// leaf's margin.
+inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
+  const SphereNode& tn = q.tool_nodes[t];
+  const SphereNode& on = q.object_nodes[o];
+  const Vec3 co = on.center.cast<double>();
+  const Vec3 d = q.tool_centers[t] - co;
+  const double dist = d.norm();
+  const double gap = dist - static_cast<double>(tn.radius) - static_cast<double>(on.radius);
+  if (!(gap < q.leaf_margin[tn.leaf])) return;
+  Contact c;
+  c.normal = dist > kCoincident ? Vec3(d / dist) : q.fallback_normal;
+  c.point = co + c.normal * static_cast<double>(on.radius);
+  c.lever = q.tool_centers[t] - q.origin;
+  c.gap = gap;
+  c.object_node = o;
+  c.tool_leaf = static_cast<uint16_t>(tn.leaf);
+  c.object = q.object;
+  c.material = on.material;
+  out.push(c);
+}
+
+// Dual traversal of the placed tool against one object tree: pop a pair known to overlap, split the
+// node with the larger sphere (a leaf is never split), keep the children that still overlap, and
+// test leaf pairs exactly.
+void traverse(const Query& q, ContactSet& out) {
+  if (!overlaps(q, 0, 0)) return;
+  std::array<NodePair, kStackSize> stack;
+  int top = 0;
+  stack[top++] = {0, 0};
+  while (top > 0) {
+    const NodePair pair = stack[--top];
+    const SphereNode& tn = q.tool_nodes[pair.tool];
+    const SphereNode& on = q.object_nodes[pair.object];
+    // Both leaves: only reached for the roots (pairs below are tested as they are generated).
+    if (tn.is_leaf() && on.is_leaf()) {
+      emit(q, pair.tool, pair.object, out);
+      continue;
+    }
+    const bool split_tool =
+        !tn.is_leaf() && (on.is_leaf() || q.tool_radii[pair.tool] >= static_cast<double>(on.radius));
+    const SphereNode& split = split_tool ? tn : on;
+    const uint32_t end = split.first + split.count;
+    for (uint32_t child = split.first; child < end; ++child) {
+      const uint32_t t = split_tool ? child : pair.tool;
+      const uint32_t o = split_tool ? pair.object : child;
+      if (!overlaps(q, t, o)) continue;
+      if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
+        emit(q, t, o, out);
+      } else if (top < kStackSize) {
+        stack[top++] = {t, o};
+      } else {
+        out.mark_overflow();
+      }
+    }
+  }
+}
+
+// A pair waiting in the closest-pair search, with the lower bound of its gap.
+struct BoundedPair {
+  double bound;  // mm
+  uint32_t tool;
+  uint32_t object;
+};
+
+// Lower bound of the gap between any leaves under a tool node and an object node (true radii);
+// the exact gap for two leaves.
+inline double gap_bound(const PlacedTool& tool, const SphereNode* tool_nodes, const SphereNode* object_nodes,
+                        uint32_t t, uint32_t o) {
+  const SphereNode& on = object_nodes[o];
+  return (tool.centers()[t] - on.center.cast<double>()).norm() - static_cast<double>(tool_nodes[t].radius) -
+         static_cast<double>(on.radius);
+}
+
+}  // namespace
+
+PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
+  // place() fits inner spheres in one reverse sweep, which needs every child after its parent.
+  for (std::size_t i = 0; i < tool.nodes.size(); ++i) {
+    const SphereNode& n = tool.nodes[i];
+    if (!n.is_leaf() && (n.first <= i || n.first + n.count > tool.nodes.size())) {
+      throw Error("PlacedTool: tool tree node " + std::to_string(i) +
+                  " has children that do not follow it in the node array");
+    }
+    if (n.is_leaf() && n.leaf >= tool.leaf_count()) {
+      throw Error("PlacedTool: tool tree leaf node " + std::to_string(i) + " has leaf index " +
+                  std::to_string(n.leaf) + " beyond the leaf table");
+    }
+  }
+  if (tool.leaf_count() > std::numeric_limits<uint16_t>::max()) {
+    throw Error("PlacedTool: " + std::to_string(tool.leaf_count()) +
+                " tool leaves exceed the contact's 16-bit leaf index");
+  }
+  centers_.assign(tool.nodes.size(), Vec3::Zero());
+  radii_.assign(tool.nodes.size(), 0.0);
+  leaf_margin_.assign(tool.leaf_count(), 0.0);
+}
+
+void PlacedTool::place(const Pose& pose, double margin) {
+  // One margin for every leaf; negative or non-finite margins count as zero.
+  const double m = std::isfinite(margin) ? std::max(margin, 0.0) : 0.0;
+  std::fill(leaf_margin_.begin(), leaf_margin_.end(), m);
+  place(pose, std::span<const double>{});
+}
+
+void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
+  assert((leaf_margin.empty() || leaf_margin.size() == leaf_margin_.size()) && "one margin per tool leaf");
+  pose_ = pose;
+  // Per-leaf margins (an empty table keeps the ones already set); bad values count as zero.
+  const std::size_t given = std::min(leaf_margin.size(), leaf_margin_.size());
+  for (std::size_t i = 0; i < given; ++i) {
+    const double m = leaf_margin[i];
+    leaf_margin_[i] = std::isfinite(m) ? std::max(m, 0.0) : 0.0;
+  }
+  // Centres into the world; leaves inflated by their margin.
+  const Mat3 rot = pose.q.toRotationMatrix();
+  const std::vector<SphereNode>& nodes = tool_->nodes;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const SphereNode& n = nodes[i];
+    centers_[i] = pose.p + rot * n.center.cast<double>();
+    radii_[i] = static_cast<double>(n.radius) + (n.is_leaf() ? leaf_margin_[n.leaf] : 0.0);
+  }
+  // Inner spheres grow by the largest inflation below them (children come after their parent).
+  for (std::size_t i = nodes.size(); i-- > 0;) {
+    const SphereNode& n = nodes[i];
+    if (n.is_leaf()) continue;
+    double inflation = 0.0;
+    for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+      inflation = std::max(inflation, radii_[k] - static_cast<double>(nodes[k].radius));
+    }
+    radii_[i] = static_cast<double>(n.radius) + inflation;
+  }
+}
+
+void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+             ContactSet& out) {
+  const SphereTree& tree = tool.tree();
+  if (tree.empty()) return;
+  // Tool data shared by every object; the fallback normal backs the tool out along its axis.
+  Query q{};
+  q.tool_nodes = tree.nodes.data();
+  q.tool_centers = tool.centers().data();
+  q.tool_radii = tool.radii().data();
+  q.leaf_margin = tool.leaf_margins().data();
+  q.origin = tool.pose().p;
+  q.fallback_normal = tool.pose().z_axis();
+  if (!q.fallback_normal.allFinite() || q.fallback_normal.squaredNorm() < 0.5)
+    q.fallback_normal = Vec3::UnitZ();
+  // One traversal per masked, non-empty object (the mask addresses the first 64).
+  const std::size_t n = std::min<std::size_t>(objects.size(), 64);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (((mask >> i) & 1u) == 0 || objects[i].tree.empty()) continue;
+    q.object_nodes = objects[i].tree.nodes.data();
+    q.object = static_cast<uint16_t>(i);
+    traverse(q, out);
+  }
+}
+
+ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+                    double search_mm) {
+  ClosestPair best;
+  best.gap = std::numeric_limits<double>::infinity();
+  const SphereTree& tree = tool.tree();
+  if (tree.empty() || std::isnan(search_mm)) return best;
+  const SphereNode* tn = tree.nodes.data();
+  // Branch and bound: a pair is explored only while its lower bound beats the best gap so far
+  // (initially the search radius); children are pushed far-to-near so the nearest is explored first.
+  double bound_limit = search_mm;
+  std::array<BoundedPair, kStackSize> stack;
+  const std::size_t n = std::min<std::size_t>(objects.size(), 64);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (((mask >> i) & 1u) == 0 || objects[i].tree.empty()) continue;
+    const SphereNode* on = objects[i].tree.nodes.data();
+    int top = 0;
+    stack[top++] = {gap_bound(tool, tn, on, 0, 0), 0, 0};
+    while (top > 0) {
+      const BoundedPair pair = stack[--top];
+      if (!(pair.bound < bound_limit)) continue;
+      const SphereNode& a = tn[pair.tool];
+      const SphereNode& b = on[pair.object];
+      // Two leaves: the bound is the exact gap.
+      if (a.is_leaf() && b.is_leaf()) {
+        bound_limit = pair.bound;
+        best = {pair.bound, static_cast<uint16_t>(a.leaf), static_cast<uint16_t>(i), pair.object};
+        continue;
+      }
+      // Split the larger sphere; keep the children that can still beat the best gap.
+      const bool split_tool = !a.is_leaf() && (b.is_leaf() || a.radius >= b.radius);
+      const SphereNode& split = split_tool ? a : b;
+      std::array<BoundedPair, 8> kids;
+      int kid_count = 0;
+      for (uint32_t c = split.first; c < split.first + split.count; ++c) {
+        const uint32_t t = split_tool ? c : pair.tool;
+        const uint32_t o = split_tool ? pair.object : c;
+        const double lb = gap_bound(tool, tn, on, t, o);
+        if (!(lb < bound_limit)) continue;
+        if (kid_count < static_cast<int>(kids.size())) {
+          kids[kid_count++] = {lb, t, o};
+        } else if (top < kStackSize) {
+          stack[top++] = {lb, t, o};  // more than 8 children: the rest go unsorted
+        }
+      }
+      // At most 8 children: an insertion sort, far first.
+      for (int k = 1; k < kid_count; ++k) {
+        const BoundedPair moving = kids[k];
+        int j = k;
+        for (; j > 0 && kids[j - 1].bound < moving.bound; --j) kids[j] = kids[j - 1];
+        kids[j] = moving;
+      }
+      for (int k = 0; k < kid_count && top < kStackSize; ++k) stack[top++] = kids[k];
+    }
+  }
+  return best;
+}
+
+}  // namespace cariesim

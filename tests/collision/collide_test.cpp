@@ -1,0 +1,425 @@
+#include "cariesim/collision/collide.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <span>
+#include <tuple>
+#include <vector>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/spheretree/hierarchy.hpp"
+#include "collision/alloc_counter.hpp"
+
+namespace cariesim {
+namespace {
+
+using PairKey = std::tuple<uint16_t, uint16_t, uint32_t>;  // tool leaf, object, object node
+
+// Random leaves around `middle` (mm) in a cube of half-size `extent`, radii in [r_min, r_max].
+std::vector<LeafSphere> random_leaves(std::size_t n, std::mt19937& rng, const Vec3f& middle, float extent,
+                                      float r_min, float r_max) {
+  std::uniform_real_distribution<float> pos(-extent, extent);
+  std::uniform_real_distribution<float> rad(r_min, r_max);
+  std::vector<LeafSphere> leaves(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    leaves[i].center = middle + Vec3f(pos(rng), pos(rng), pos(rng));
+    leaves[i].radius = rad(rng);
+    leaves[i].material = static_cast<uint16_t>(rng() % 5);
+  }
+  return leaves;
+}
+
+CollisionObject make_object(std::span<const LeafSphere> leaves, int branching, const char* name) {
+  CollisionObject obj;
+  obj.name = name;
+  obj.tree = build_hierarchy(leaves, branching);
+  return obj;
+}
+
+Pose random_pose(std::mt19937& rng, double spread) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Pose pose;
+  pose.p = Vec3(u(rng), u(rng), u(rng)) * spread;
+  pose.q = Quat(u(rng), u(rng), u(rng), u(rng)).normalized();
+  return pose;
+}
+
+// Every (tool leaf, object leaf) pair of the masked objects with gap below the tool leaf's margin.
+std::map<PairKey, Contact> brute_force(const SphereTree& tool, const Pose& pose,
+                                       std::span<const double> margins,
+                                       std::span<const CollisionObject> objects, ObjectMask mask) {
+  std::map<PairKey, Contact> pairs;
+  for (std::size_t oi = 0; oi < objects.size(); ++oi) {
+    if (((mask >> oi) & 1u) == 0) continue;
+    const SphereTree& obj = objects[oi].tree;
+    for (std::size_t tl = 0; tl < tool.leaf_count(); ++tl) {
+      const SphereNode& tn = tool.nodes[tool.leaf_nodes[tl]];
+      const Vec3 ct = pose.transform(tn.center.cast<double>());
+      for (std::size_t ol = 0; ol < obj.leaf_count(); ++ol) {
+        const uint32_t node = obj.leaf_nodes[ol];
+        const SphereNode& on = obj.nodes[node];
+        const Vec3 co = on.center.cast<double>();
+        const double gap = (ct - co).norm() - tn.radius - on.radius;
+        if (!(gap < margins[tl])) continue;
+        Contact c;
+        c.normal = (ct - co).normalized();
+        c.point = co + c.normal * static_cast<double>(on.radius);
+        c.lever = ct - pose.p;
+        c.gap = gap;
+        c.material = on.material;
+        pairs[{static_cast<uint16_t>(tl), static_cast<uint16_t>(oi), node}] = c;
+      }
+    }
+  }
+  return pairs;
+}
+
+std::map<PairKey, Contact> as_map(const ContactSet& set) {
+  std::map<PairKey, Contact> pairs;
+  for (const Contact& c : set.view()) {
+    const bool fresh = pairs.emplace(PairKey{c.tool_leaf, c.object, c.object_node}, c).second;
+    EXPECT_TRUE(fresh) << "pair reported twice";
+  }
+  return pairs;
+}
+
+// Random trees and poses: the traversal finds exactly the brute-force pair set, with the same data.
+TEST(Collide, MatchesBruteForceOnRandomTrees) {
+  std::mt19937 rng(42);
+  const std::vector<LeafSphere> tool_leaves = random_leaves(120, rng, Vec3f(0, 0, 2), 2.5f, 0.03f, 0.4f);
+  const SphereTree tool = build_hierarchy(tool_leaves, 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(3000, rng, Vec3f(0, 0, 0), 4.0f, 0.05f, 0.3f), 4, "a"));
+  objects.push_back(make_object(random_leaves(1500, rng, Vec3f(2, 1, 0), 3.0f, 0.1f, 0.5f), 2, "b"));
+  objects.push_back(make_object(random_leaves(700, rng, Vec3f(-2, 0, 1), 2.0f, 0.0f, 0.2f), 8, "c"));
+  PlacedTool placed(tool);
+  ContactSet set(1 << 16);
+  std::uniform_real_distribution<double> per_leaf(0.0, 0.4);
+  std::size_t total = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    const Pose pose = random_pose(rng, 2.0);
+    std::vector<double> margins(tool.leaf_count());
+    const int kind = trial % 4;
+    for (double& m : margins) m = kind == 0 ? 0.0 : kind == 1 ? 0.05 : kind == 2 ? 0.3 : per_leaf(rng);
+    if (kind == 3) {
+      placed.place(pose, margins);
+    } else {
+      placed.place(pose, margins[0]);
+    }
+    const ObjectMask mask = trial % 3 == 2 ? ObjectMask{0b101} : kAllObjects;
+    set.clear();
+    collide(placed, objects, mask, set);
+    ASSERT_FALSE(set.overflow());
+    const std::map<PairKey, Contact> got = as_map(set);
+    const std::map<PairKey, Contact> want = brute_force(tool, pose, margins, objects, mask);
+    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
+    total += got.size();
+    for (const auto& [key, w] : want) {
+      const auto it = got.find(key);
+      ASSERT_NE(it, got.end()) << "missing pair in trial " << trial;
+      const Contact& g = it->second;
+      EXPECT_NEAR(g.gap, w.gap, 1e-9);
+      EXPECT_NEAR((g.normal - w.normal).norm(), 0.0, 1e-9);
+      EXPECT_NEAR((g.point - w.point).norm(), 0.0, 1e-9);
+      EXPECT_NEAR((g.lever - w.lever).norm(), 0.0, 1e-9);
+      EXPECT_EQ(g.material, w.material);
+    }
+  }
+  EXPECT_GT(total, 1000u) << "the random scenes should produce many pairs";
+}
+
+// A sphere hovering above a plane of spheres: the gap and normal follow from the geometry.
+TEST(Collide, SphereAboveAPlaneOfSpheres) {
+  constexpr float kR = 0.2f;     // plane spheres, mm
+  constexpr double kTip = 0.05;  // tool sphere, mm
+  std::vector<LeafSphere> plane;
+  for (int i = -20; i <= 20; ++i) {
+    for (int j = -20; j <= 20; ++j) {
+      LeafSphere l{};
+      l.center = Vec3f(0.5f * static_cast<float>(i), 0.5f * static_cast<float>(j), 0.0f);
+      l.radius = kR;
+      l.material = 3;
+      plane.push_back(l);
+    }
+  }
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(plane, 4, "plane"));
+  std::vector<LeafSphere> tip(1);
+  tip[0].radius = static_cast<float>(kTip);
+  tip[0].center = Vec3f::Zero();
+  const SphereTree tool = build_hierarchy(tip, 4);
+  PlacedTool placed(tool);
+  ContactSet set(64);
+  for (const double height : {0.3, 0.25, 0.2}) {
+    Pose pose;
+    pose.p = Vec3(1.5, -2.0, height);  // above the plane sphere at (1.5, -2, 0)
+    placed.place(pose, 0.1);
+    set.clear();
+    collide(placed, objects, kAllObjects, set);
+    ASSERT_EQ(set.size(), 1u) << "height " << height;
+    const Contact& c = set[0];
+    EXPECT_NEAR(c.gap, height - kTip - kR, 1e-6);
+    EXPECT_NEAR((c.normal - Vec3::UnitZ()).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((c.point - Vec3(1.5, -2.0, kR)).norm(), 0.0, 1e-6);
+    EXPECT_NEAR(c.lever.norm(), 0.0, 1e-12);
+    EXPECT_EQ(c.material, 3);
+    EXPECT_EQ(c.tool_leaf, 0);
+    const SphereNode& hit = objects[0].tree.nodes[c.object_node];
+    EXPECT_NEAR((hit.center.cast<double>() - Vec3(1.5, -2.0, 0.0)).norm(), 0.0, 1e-6);
+    const ClosestPair cp = closest(placed, objects, kAllObjects, 5.0);
+    EXPECT_NEAR(cp.gap, height - kTip - kR, 1e-6);
+    EXPECT_EQ(cp.object_node, c.object_node);
+  }
+  // Out of the margin: nothing.
+  Pose far;
+  far.p = Vec3(1.5, -2.0, 0.5);
+  placed.place(far, 0.1);
+  set.clear();
+  collide(placed, objects, kAllObjects, set);
+  EXPECT_EQ(set.size(), 0u);
+}
+
+TEST(ContactSet, KeepsTheSmallestGapsWhenFull) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  ContactSet set(16);
+  std::vector<double> gaps;
+  for (int i = 0; i < 16; ++i) {
+    Contact c;
+    c.gap = u(rng);
+    gaps.push_back(c.gap);
+    set.push(c);
+  }
+  EXPECT_EQ(set.size(), 16u);
+  EXPECT_FALSE(set.overflow()) << "exactly full is not an overflow";
+  for (int i = 0; i < 500; ++i) {
+    Contact c;
+    c.gap = u(rng);
+    c.object_node = static_cast<uint32_t>(i);
+    gaps.push_back(c.gap);
+    set.push(c);
+  }
+  EXPECT_TRUE(set.overflow());
+  ASSERT_EQ(set.size(), 16u);
+  std::sort(gaps.begin(), gaps.end());
+  std::vector<double> kept;
+  for (const Contact& c : set.view()) kept.push_back(c.gap);
+  std::sort(kept.begin(), kept.end());
+  for (std::size_t i = 0; i < kept.size(); ++i) EXPECT_EQ(kept[i], gaps[i]);
+  set.clear();
+  EXPECT_EQ(set.size(), 0u);
+  EXPECT_FALSE(set.overflow());
+  ContactSet none(0);
+  none.push(Contact{});
+  EXPECT_EQ(none.size(), 0u);
+  EXPECT_TRUE(none.overflow());
+}
+
+// A query with more pairs than capacity keeps the best of the brute-force set.
+TEST(Collide, OverflowKeepsTheDeepestPairs) {
+  std::mt19937 rng(9);
+  const SphereTree tool = build_hierarchy(random_leaves(40, rng, Vec3f::Zero(), 1.0f, 0.2f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(2000, rng, Vec3f::Zero(), 2.0f, 0.1f, 0.3f), 4, "dense"));
+  PlacedTool placed(tool);
+  placed.place(Pose{}, 0.05);
+  ContactSet big(1 << 16);
+  collide(placed, objects, kAllObjects, big);
+  ASSERT_GT(big.size(), 100u);
+  ContactSet small(32);
+  collide(placed, objects, kAllObjects, small);
+  EXPECT_TRUE(small.overflow());
+  ASSERT_EQ(small.size(), 32u);
+  std::vector<double> all;
+  for (const Contact& c : big.view()) all.push_back(c.gap);
+  std::sort(all.begin(), all.end());
+  std::vector<double> kept;
+  for (const Contact& c : small.view()) kept.push_back(c.gap);
+  std::sort(kept.begin(), kept.end());
+  for (std::size_t i = 0; i < kept.size(); ++i) EXPECT_DOUBLE_EQ(kept[i], all[i]);
+}
+
+TEST(Collide, RespectsTheObjectMask) {
+  std::mt19937 rng(3);
+  const SphereTree tool = build_hierarchy(random_leaves(30, rng, Vec3f::Zero(), 1.0f, 0.2f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  for (int i = 0; i < 3; ++i) {
+    objects.push_back(make_object(random_leaves(300, rng, Vec3f::Zero(), 1.5f, 0.1f, 0.3f), 4, "o"));
+  }
+  PlacedTool placed(tool);
+  placed.place(Pose{}, 0.05);
+  ContactSet set(1 << 14);
+  collide(placed, objects, kAllObjects, set);
+  std::array<int, 3> per_object{};
+  for (const Contact& c : set.view()) ++per_object[c.object];
+  for (int count : per_object) EXPECT_GT(count, 0);
+  set.clear();
+  collide(placed, objects, ObjectMask{0b010}, set);
+  ASSERT_GT(set.size(), 0u);
+  for (const Contact& c : set.view()) EXPECT_EQ(c.object, 1);
+  EXPECT_EQ(set.size(), static_cast<std::size_t>(per_object[1]));
+  set.clear();
+  collide(placed, objects, ObjectMask{0}, set);
+  EXPECT_EQ(set.size(), 0u);
+  EXPECT_TRUE(std::isinf(closest(placed, objects, ObjectMask{0}, 10.0).gap));
+}
+
+TEST(Collide, ClosestMatchesBruteForce) {
+  std::mt19937 rng(5);
+  const SphereTree tool = build_hierarchy(random_leaves(80, rng, Vec3f(0, 0, 3), 2.0f, 0.05f, 0.3f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(2500, rng, Vec3f::Zero(), 3.0f, 0.05f, 0.3f), 4, "a"));
+  objects.push_back(make_object(random_leaves(900, rng, Vec3f(4, 0, 0), 1.0f, 0.05f, 0.3f), 3, "b"));
+  PlacedTool placed(tool);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Pose pose = random_pose(rng, 5.0);
+    placed.place(pose, 0.2);
+    double want = std::numeric_limits<double>::infinity();
+    for (std::size_t oi = 0; oi < objects.size(); ++oi) {
+      const SphereTree& obj = objects[oi].tree;
+      for (uint32_t tn : tool.leaf_nodes) {
+        const Vec3 ct = pose.transform(tool.nodes[tn].center.cast<double>());
+        for (uint32_t on : obj.leaf_nodes) {
+          want = std::min(want, (ct - obj.nodes[on].center.cast<double>()).norm() - tool.nodes[tn].radius -
+                                    obj.nodes[on].radius);
+        }
+      }
+    }
+    const ClosestPair got = closest(placed, objects, kAllObjects, 100.0);
+    EXPECT_NEAR(got.gap, want, 1e-9) << "trial " << trial;
+    // The pair it names gives that gap.
+    const SphereNode& t = tool.nodes[tool.leaf_nodes[got.tool_leaf]];
+    const SphereNode& o = objects[got.object].tree.nodes[got.object_node];
+    ASSERT_TRUE(o.is_leaf());
+    EXPECT_NEAR(
+        (pose.transform(t.center.cast<double>()) - o.center.cast<double>()).norm() - t.radius - o.radius,
+        want, 1e-9);
+    // A search radius below the smallest gap finds nothing.
+    EXPECT_TRUE(std::isinf(closest(placed, objects, kAllObjects, want - 1e-3).gap));
+  }
+}
+
+// Coincident centres and zero radii give finite contacts; the normal falls back to the tool axis.
+TEST(Collide, CoincidentCentresAndZeroRadiiStayFinite) {
+  std::vector<LeafSphere> obj_leaves(2);
+  obj_leaves[0].center = Vec3f(1.0f, 2.0f, 3.0f);
+  obj_leaves[0].radius = 0.0f;
+  obj_leaves[1].center = Vec3f(1.0f, 2.0f, 3.0f);
+  obj_leaves[1].radius = 0.3f;
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(obj_leaves, 2, "pointy"));
+  std::vector<LeafSphere> tool_leaves(2);
+  tool_leaves[0].center = Vec3f::Zero();
+  tool_leaves[0].radius = 0.0f;
+  tool_leaves[1].center = Vec3f(0.0f, 0.0f, 0.0f);
+  tool_leaves[1].radius = 0.1f;
+  const SphereTree tool = build_hierarchy(tool_leaves, 2);
+  PlacedTool placed(tool);
+  Pose pose;
+  pose.p = Vec3(1.0, 2.0, 3.0);
+  pose.q = Quat(Eigen::AngleAxisd(0.7, Vec3(1, 1, 0).normalized()));
+  placed.place(pose, 0.0);
+  ContactSet set(16);
+  collide(placed, objects, kAllObjects, set);
+  ASSERT_EQ(set.size(), 3u) << "point-point at distance 0 has gap 0, not below a zero margin";
+  for (const Contact& c : set.view()) {
+    EXPECT_TRUE(c.normal.allFinite());
+    EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12);
+    EXPECT_NEAR((c.normal - pose.z_axis()).norm(), 0.0, 1e-12);
+    EXPECT_TRUE(c.point.allFinite());
+    EXPECT_TRUE(std::isfinite(c.gap));
+    EXPECT_LE(c.gap, 0.0);
+  }
+  const ClosestPair cp = closest(placed, objects, kAllObjects, 1.0);
+  EXPECT_NEAR(cp.gap, -0.4, 1e-6);
+}
+
+TEST(Collide, NonFinitePoseGivesNoContacts) {
+  std::mt19937 rng(1);
+  const SphereTree tool = build_hierarchy(random_leaves(30, rng, Vec3f::Zero(), 1.0f, 0.2f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(300, rng, Vec3f::Zero(), 1.5f, 0.1f, 0.3f), 4, "o"));
+  PlacedTool placed(tool);
+  Pose pose;
+  pose.p.x() = std::numeric_limits<double>::quiet_NaN();
+  placed.place(pose, std::numeric_limits<double>::infinity());
+  ContactSet set(64);
+  collide(placed, objects, kAllObjects, set);
+  EXPECT_EQ(set.size(), 0u);
+  EXPECT_TRUE(std::isinf(closest(placed, objects, kAllObjects, 10.0).gap));
+}
+
+TEST(PlacedTool, InflatesLeavesAndTheirAncestors) {
+  std::mt19937 rng(2);
+  const SphereTree tool = build_hierarchy(random_leaves(50, rng, Vec3f::Zero(), 2.0f, 0.05f, 0.3f), 4);
+  PlacedTool placed(tool);
+  std::vector<double> margins(tool.leaf_count(), 0.0);
+  margins[17] = 0.5;
+  placed.place(Pose{}, margins);
+  // Every node's inflated sphere holds every inflated leaf below it.
+  for (std::size_t i = 0; i < tool.nodes.size(); ++i) {
+    std::vector<uint32_t> stack{static_cast<uint32_t>(i)};
+    while (!stack.empty()) {
+      const uint32_t k = stack.back();
+      stack.pop_back();
+      const SphereNode& n = tool.nodes[k];
+      if (n.is_leaf()) {
+        EXPECT_LE((placed.centers()[k] - placed.centers()[i]).norm() + n.radius + margins[n.leaf],
+                  placed.radii()[i] + 1e-9)
+            << "node " << i << " leaf " << n.leaf << " diff "
+            << ((placed.centers()[k] - placed.centers()[i]).norm() + n.radius + margins[n.leaf] -
+                placed.radii()[i]);
+      } else {
+        for (uint32_t c = n.first; c < n.first + n.count; ++c) stack.push_back(c);
+      }
+    }
+  }
+  EXPECT_NEAR(placed.radii()[tool.leaf_nodes[17]], tool.nodes[tool.leaf_nodes[17]].radius + 0.5, 1e-7);
+  EXPECT_NEAR(placed.radii()[tool.leaf_nodes[3]], tool.nodes[tool.leaf_nodes[3]].radius, 1e-7);
+  EXPECT_GT(placed.radii()[0], tool.nodes[0].radius + 0.4);
+}
+
+TEST(PlacedTool, RejectsATreeWithChildrenBeforeTheirParent) {
+  SphereTree bad;
+  bad.nodes.resize(3);
+  bad.nodes[1].first = 0;  // node 1 claims node 0 and 1 as children
+  bad.nodes[1].count = 2;
+  bad.nodes[0].first = 1;
+  bad.nodes[0].count = 2;
+  bad.leaf_nodes = {2};
+  EXPECT_THROW(PlacedTool{bad}, Error);
+}
+
+TEST(Collide, PlaceAndCollideDoNotAllocate) {
+  std::mt19937 rng(4);
+  const SphereTree tool = build_hierarchy(random_leaves(200, rng, Vec3f(0, 0, 3), 3.0f, 0.05f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(20000, rng, Vec3f::Zero(), 5.0f, 0.1f, 0.3f), 4, "a"));
+  objects.push_back(make_object(random_leaves(2000, rng, Vec3f(3, 0, 0), 2.0f, 0.1f, 0.3f), 4, "b"));
+  PlacedTool placed(tool);
+  ContactSet set(256);
+  std::vector<double> margins(tool.leaf_count(), 0.08);
+  std::vector<Pose> poses;
+  for (int i = 0; i < 50; ++i) poses.push_back(random_pose(rng, 3.0));
+  std::size_t contacts = 0;
+  const std::size_t before = test::allocation_count();
+  for (const Pose& pose : poses) {
+    placed.place(pose, margins);
+    set.clear();
+    collide(placed, objects, kAllObjects, set);
+    contacts += set.size();
+    placed.place(pose, 0.1);
+    (void)closest(placed, objects, kAllObjects, 1.0);
+  }
+  const std::size_t after = test::allocation_count();
+  EXPECT_EQ(after - before, 0u);
+  EXPECT_GT(contacts, 0u);
+}
+
+}  // namespace
+}  // namespace cariesim
