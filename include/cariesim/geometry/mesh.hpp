@@ -29,21 +29,30 @@ struct TriangleMesh {
 
 /// What validation found and what it repaired.
 struct MeshReport {
-  std::size_t input_triangles = 0;
-  std::size_t degenerate_removed = 0;   ///< zero-area triangles dropped
-  std::size_t duplicates_merged = 0;    ///< coincident vertices welded
-  std::size_t boundary_edges = 0;       ///< edges with one triangle (open mesh) after repair
-  std::size_t nonmanifold_edges = 0;    ///< edges with more than two triangles after repair
-  bool flipped = false;                 ///< the winding was reversed to face outward
-  std::vector<std::string> warnings;    ///< human-readable notes on the repairs
+  std::size_t input_triangles = 0;     ///< triangles before repair
+  std::size_t degenerate_removed = 0;  ///< zero-area triangles dropped
+  std::size_t duplicates_merged = 0;   ///< coincident vertices welded
+  std::size_t boundary_edges = 0;      ///< edges with one triangle (open mesh) after repair
+  std::size_t nonmanifold_edges = 0;   ///< edges with more than two triangles after repair
+  bool flipped = false;                ///< the winding was reversed to face outward
+  std::size_t reoriented = 0;          ///< triangles turned to agree with their neighbours' winding
+  std::size_t holes_filled = 0;        ///< small boundary loops closed (MeshLoadOptions::fill_small_holes)
+  std::size_t components = 0;          ///< connected shells after repair
+  std::size_t self_intersections = 0;  ///< intersecting pairs of non-adjacent triangles (when checked)
+  std::vector<std::string> warnings;   ///< human-readable notes on the repairs
   [[nodiscard]] bool watertight() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
 };
 
 /// Import options.
 struct MeshLoadOptions {
-  double scale = 1.0;        ///< multiplies coordinates (files are expected in mm)
-  bool require_closed = true;  ///< reject open / non-manifold meshes that cannot be repaired
+  double scale = 1.0;            ///< multiplies coordinates (files are expected in mm); load_mesh only
+  bool require_closed = true;    ///< reject open / non-manifold meshes that cannot be repaired
+  bool fill_small_holes = true;  ///< close boundary loops of at most kMaxFilledHoleEdges edges
+  bool check_self_intersections = true;  ///< count intersecting triangle pairs (a warning, not an error)
 };
+
+/// Longest boundary loop (edges) that validation closes when fill_small_holes is set.
+inline constexpr std::size_t kMaxFilledHoleEdges = 8;
 
 /// Loads STL (ASCII or binary), OBJ or PLY through assimp, validates and repairs it (welds vertices,
 /// drops degenerate triangles, orients outward). Throws cariesim::Error naming the file and the
