@@ -121,6 +121,15 @@ inline double gap_bound(const PlacedTool& tool, const SphereNode* tool_nodes, co
          static_cast<double>(on.radius);
 }
 
+// Moves every tool node centre into the world: c_world = p + R c_tool.
+void place_centers(const SphereTree& tool, const Pose& pose, std::vector<Vec3>& centers) {
+  const Mat3 rot = pose.q.toRotationMatrix();
+  const SphereNode* nodes = tool.nodes.data();
+  Vec3* out = centers.data();
+  const std::size_t count = tool.nodes.size();
+  for (std::size_t i = 0; i < count; ++i) out[i] = pose.p + rot * nodes[i].center.cast<double>();
+}
+
 }  // namespace
 
 PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
@@ -146,33 +155,35 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
 }
 
 void PlacedTool::place(const Pose& pose, double margin) {
-  // One margin for every leaf; negative or non-finite margins count as zero.
+  pose_ = pose;
+  place_centers(*tool_, pose, centers_);
+  // One margin for every leaf (negative or non-finite counts as zero): every node, leaf or inner,
+  // grows by exactly that much.
   const double m = std::isfinite(margin) ? std::max(margin, 0.0) : 0.0;
   std::fill(leaf_margin_.begin(), leaf_margin_.end(), m);
-  place(pose, std::span<const double>{});
+  const std::vector<SphereNode>& nodes = tool_->nodes;
+  for (std::size_t i = 0; i < nodes.size(); ++i) radii_[i] = static_cast<double>(nodes[i].radius) + m;
 }
 
 void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
   assert((leaf_margin.empty() || leaf_margin.size() == leaf_margin_.size()) && "one margin per tool leaf");
   pose_ = pose;
+  place_centers(*tool_, pose, centers_);
   // Per-leaf margins (an empty table keeps the ones already set); bad values count as zero.
   const std::size_t given = std::min(leaf_margin.size(), leaf_margin_.size());
   for (std::size_t i = 0; i < given; ++i) {
     const double m = leaf_margin[i];
     leaf_margin_[i] = std::isfinite(m) ? std::max(m, 0.0) : 0.0;
   }
-  // Centres into the world; leaves inflated by their margin.
-  const Mat3 rot = pose.q.toRotationMatrix();
+  // Leaves grow by their margin; inner spheres by the largest inflation below them (children come
+  // after their parent, so one reverse sweep sees every child first).
   const std::vector<SphereNode>& nodes = tool_->nodes;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    const SphereNode& n = nodes[i];
-    centers_[i] = pose.p + rot * n.center.cast<double>();
-    radii_[i] = static_cast<double>(n.radius) + (n.is_leaf() ? leaf_margin_[n.leaf] : 0.0);
-  }
-  // Inner spheres grow by the largest inflation below them (children come after their parent).
   for (std::size_t i = nodes.size(); i-- > 0;) {
     const SphereNode& n = nodes[i];
-    if (n.is_leaf()) continue;
+    if (n.is_leaf()) {
+      radii_[i] = static_cast<double>(n.radius) + leaf_margin_[n.leaf];
+      continue;
+    }
     double inflation = 0.0;
     for (uint32_t k = n.first; k < n.first + n.count; ++k) {
       inflation = std::max(inflation, radii_[k] - static_cast<double>(nodes[k].radius));
