@@ -39,15 +39,12 @@
 // Run: build/bench/collision_bench --benchmark_counters_tabular=true
 // Counters: p50_us / p99_us per query (from our own clock around each query), contacts per query.
 
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
 #include <benchmark/benchmark.h>
 #include <fcl/fcl.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <array>
-#include <assimp/Importer.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -55,11 +52,11 @@
 #include <limits>
 #include <memory>
 #include <numbers>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "cariesim/collision/collide.hpp"
+#include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/hierarchy.hpp"
@@ -86,41 +83,23 @@ struct Tooth {
   Vec3 centre;  // mm, the tooth's centre from the same file
 };
 
-// Loads tooth_30 (FDI 46) with assimp (identical vertices joined) and its axis from the JSON file
-// (read with yaml-cpp: JSON is YAML).
+// Loads tooth_30 (FDI 46) with load_mesh (welded, oriented outward) and its axis from the JSON
+// file (read with yaml-cpp: JSON is YAML).
 Tooth load_tooth() {
   Tooth tooth;
-  Assimp::Importer importer;
-  // STL stores face normals per corner; dropping them lets assimp weld the shared corners.
-  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_NORMALS);
-  const aiScene* scene =
-      importer.ReadFile((kDataDir / "tooth_30.stl").string(),
-                        aiProcess_RemoveComponent | aiProcess_JoinIdenticalVertices | aiProcess_Triangulate);
-  if (scene == nullptr || scene->mNumMeshes == 0) throw std::runtime_error("cannot read tooth_30.stl");
-  const aiMesh* mesh = scene->mMeshes[0];
-  for (unsigned i = 0; i < mesh->mNumVertices; ++i) {
-    tooth.vertices.emplace_back(mesh->mVertices[i].x, mesh->mVertices[i].y, mesh->mVertices[i].z);
+  const cariesim::TriangleMesh mesh = cariesim::load_mesh(kDataDir / "tooth_30.stl");
+  for (const Vec3f& v : mesh.vertices) tooth.vertices.push_back(v.cast<double>());
+  for (const auto& t : mesh.triangles) {
+    tooth.triangles.push_back({static_cast<int>(t[0]), static_cast<int>(t[1]), static_cast<int>(t[2])});
   }
-  for (unsigned i = 0; i < mesh->mNumFaces; ++i) {
-    const aiFace& f = mesh->mFaces[i];
-    if (f.mNumIndices == 3) {
-      tooth.triangles.push_back({static_cast<int>(f.mIndices[0]), static_cast<int>(f.mIndices[1]),
-                                 static_cast<int>(f.mIndices[2])});
-    }
-  }
-  // Area-weighted vertex normals; flipped when the mesh winds inward (negative volume).
+  // Area-weighted vertex normals (outward: load_mesh orients the triangles).
   tooth.normals.assign(tooth.vertices.size(), Vec3::Zero());
-  double volume = 0.0;
   for (const auto& t : tooth.triangles) {
     const Vec3& a = tooth.vertices[t[0]];
-    const Vec3& b = tooth.vertices[t[1]];
-    const Vec3& c = tooth.vertices[t[2]];
-    const Vec3 n = (b - a).cross(c - a);
+    const Vec3 n = (tooth.vertices[t[1]] - a).cross(tooth.vertices[t[2]] - a);
     for (int k : t) tooth.normals[k] += n;
-    volume += a.dot(b.cross(c)) / 6.0;
   }
-  const double sign = volume < 0.0 ? -1.0 : 1.0;
-  for (Vec3& n : tooth.normals) n = sign * n.normalized();
+  for (Vec3& n : tooth.normals) n.normalize();
   const YAML::Node axes = YAML::LoadFile((kDataDir / "teeth_axes_mandible.json").string())["30"];
   Vec3 c;
   Vec3 z;
