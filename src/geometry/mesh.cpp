@@ -120,6 +120,9 @@ std::size_t remove_degenerate(TriangleMesh& mesh) {
       if (!dead[t]) add_edges(t);
     }
 
+    // Splits may leave slivers to fix in turn (flat fans); a budget keeps that finite, after which
+    // remaining slivers are only dropped.
+    std::size_t split_budget = 2 * caps.size() + 16;
     for (std::size_t i = 0; i < caps.size(); ++i) {
       const uint32_t t = caps[i];
       if (dead[t]) continue;
@@ -143,7 +146,8 @@ std::size_t remove_degenerate(TriangleMesh& mesh) {
 
       // Split the unique neighbour (u, v, s) across {p, q} into (u, r, s) and (r, v, s).
       const auto& across = edge_tris[edge_key(p, q)];
-      if (across.size() != 1) continue;
+      if (across.size() != 1 || split_budget == 0) continue;
+      --split_budget;
       const uint32_t n = across.front();
       Triangle tri = tris[n];
       while (!((tri[0] == p && tri[1] == q) || (tri[0] == q && tri[1] == p))) {

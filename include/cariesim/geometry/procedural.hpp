@@ -13,42 +13,62 @@ namespace cariesim {
 TriangleMesh make_cuboid(const Vec3& size_mm);
 
 /// A lower molar. Frame origin: centre of the crown at the cemento-enamel junction; the crown spans
-/// z in [0, crown_height], the roots go down to -root_length.
+/// z in [0, crown_height], the roots go down to -root_length. +x is mesial and +y buccal, as for a
+/// lower right tooth (FDI 46, 47); `mirrored` puts buccal at -y for the left side (36, 37).
+/// Cusps (5): mesiobuccal, distobuccal, distal, mesiolingual, distolingual (4: without the distal);
+/// fissures run between them from the central fossa; marginal ridges close the mesial and distal ends.
+/// Built as an implicit solid meshed with OpenVDB; deterministic.
 struct MolarParams {
   double mesiodistal = 11.0;   ///< mm, crown length along x
   double buccolingual = 10.0;  ///< mm, crown width along y
   double crown_height = 7.5;   ///< mm
   double root_length = 13.0;   ///< mm
   int cusps = 5;               ///< 4 or 5
-  int roots = 2;               ///< mesial and distal
+  int roots = 2;               ///< 2: mesial and distal; 1: one fused root
   double resolution = 0.15;    ///< mm, target edge length of the surface mesh
+  bool mirrored = false;       ///< buccal at -y (lower left teeth)
 };
+/// Throws cariesim::Error on parameters out of range (cusps not 4 or 5, non-positive sizes, ...).
 TriangleMesh make_molar(const MolarParams& params = {});
 
-/// A lower premolar (two cusps, one root), same frame conventions.
+/// A lower premolar (two cusps, the buccal one higher; one root), same frame conventions.
 struct PremolarParams {
   double mesiodistal = 7.0;   ///< mm
   double buccolingual = 8.0;  ///< mm
   double crown_height = 8.0;  ///< mm
   double root_length = 14.0;  ///< mm
   double resolution = 0.15;   ///< mm
+  bool mirrored = false;      ///< buccal at -y (lower left teeth)
 };
+/// Throws cariesim::Error on parameters out of range.
 TriangleMesh make_premolar(const PremolarParams& params = {});
+
+/// Named points of a procedural tooth (mm, tooth frame), for placing lesions and neighbours.
+struct ToothLandmarks {
+  std::vector<Vec3> cusp_tips;  ///< mm, on the surface, in the order the tooth's comment lists them
+  Vec3 central_fossa;           ///< mm, lowest point of the occlusal surface between the cusps
+  Vec3 mesial_contact;          ///< mm, most mesial point of the crown (contact with the neighbour)
+  Vec3 distal_contact;          ///< mm, most distal point of the crown
+};
+/// Landmarks of make_molar(params), found on the same implicit surface.
+ToothLandmarks molar_landmarks(const MolarParams& params = {});
+/// Landmarks of make_premolar(params): cusp tips buccal then lingual.
+ToothLandmarks premolar_landmarks(const PremolarParams& params = {});
 
 /// The gingiva around a row of teeth: a band following a polyline (mm, world xy) at the cervical level.
 struct GingivaParams {
-  std::vector<Vec3> path;     ///< mm, centre line of the arch segment at the gingival margin
-  double width = 14.0;        ///< mm, bucco-lingual width of the band
-  double height = 4.0;        ///< mm, thickness below the margin
-  double resolution = 0.5;    ///< mm
+  std::vector<Vec3> path;   ///< mm, centre line of the arch segment at the gingival margin
+  double width = 14.0;      ///< mm, bucco-lingual width of the band
+  double height = 4.0;      ///< mm, thickness below the margin
+  double resolution = 0.5;  ///< mm
 };
 TriangleMesh make_gingiva_band(const GingivaParams& params);
 
 /// A tongue: a flattened, rounded body (mm) centred on the origin, long axis along x.
 struct TongueParams {
-  double length = 50.0;  ///< mm
-  double width = 45.0;   ///< mm
-  double height = 15.0;  ///< mm
+  double length = 50.0;     ///< mm
+  double width = 45.0;      ///< mm
+  double height = 15.0;     ///< mm
   double resolution = 1.0;  ///< mm
 };
 TriangleMesh make_tongue(const TongueParams& params = {});
@@ -56,21 +76,21 @@ TriangleMesh make_tongue(const TongueParams& params = {});
 /// The dental explorer, in the tool frame: origin at the centre of the tip sphere, +z along the tip
 /// segment toward the handle. Made of a handle, a tapered shank and a curved working end.
 struct ExplorerParams {
-  double tip_radius = 0.05;        ///< mm
-  double tip_segment = 2.5;        ///< mm, straight part from the tip along +z
+  double tip_radius = 0.05;          ///< mm
+  double tip_segment = 2.5;          ///< mm, straight part from the tip along +z
   double working_end_radius = 0.45;  ///< mm, wire radius where the working end meets the shank
-  double bend_radius = 6.0;        ///< mm, radius of the curved working end
-  double bend_angle = 1.75;        ///< rad, how far the working end curves
-  double shank_length = 22.0;      ///< mm
-  double shank_radius = 1.0;       ///< mm, at the handle end
-  double handle_length = 90.0;     ///< mm
-  double handle_radius = 4.5;      ///< mm
+  double bend_radius = 6.0;          ///< mm, radius of the curved working end
+  double bend_angle = 1.75;          ///< rad, how far the working end curves
+  double shank_length = 22.0;        ///< mm
+  double shank_radius = 1.0;         ///< mm, at the handle end
+  double handle_length = 90.0;       ///< mm
+  double handle_radius = 4.5;        ///< mm
 };
 
 /// One sphere of the tool's chain.
 struct ToolSphere {
-  Vec3 center;    ///< mm, tool frame
-  double radius;  ///< mm
+  Vec3 center;       ///< mm, tool frame
+  double radius;     ///< mm
   uint16_t segment;  ///< 0 tip segment, 1 working end, 2 shank, 3 handle
 };
 
