@@ -29,6 +29,7 @@ struct Work {
   const QpProblem* pb = nullptr;
   int m = 0;
   Mat6 l_inv;                               // L^-1 with G = L L^T, sqrt(mm/N)
+  bool diagonal_g = false;                  // G (hence L^-1) is diagonal
   std::array<Vec6, kQpMaxRows> u;           // u_i = L^-1 a_i, sqrt(mm/N) per unit of a
   std::array<double, kQpMaxRows> beta;      // b_i - a_i^T x_t, mm
   std::array<double, kQpMaxRows> diag;      // M_ii = u_i^T u_i + c_i, mm/N
@@ -48,7 +49,8 @@ struct Work {
 
 using ActiveVec = std::array<double, kQpMaxActive>;
 
-bool bounded(double v) { return std::isfinite(v) && std::abs(v) <= kQpMaxMagnitude; }
+// Finite and within the accepted magnitude (false for NaN and inf too).
+bool bounded(double v) { return std::abs(v) <= kQpMaxMagnitude; }
 
 // x_t with NaN replaced by 0 and everything clamped to the accepted magnitude.
 Vec6 finite_target(const Vec6& x_t) {
@@ -60,35 +62,57 @@ Vec6 finite_target(const Vec6& x_t) {
   return x;
 }
 
-// Input checks at the API edge: sizes, finiteness, magnitudes, compliance sign, G symmetric and
-// positive definite with bounded conditioning. Fills l_inv on success.
-bool check_input(const QpProblem& pb, Mat6& l_inv) {
+// Input checks of everything but the rows (row count, x_t, G bounded, symmetric, positive definite
+// with bounded conditioning), and the factor L^-1 of G = L L^T. A diagonal G (the usual case) is
+// recognised and factored directly.
+bool factor_weight(const QpProblem& pb, Mat6& l_inv, bool& diagonal) {
   if (pb.row_count < 0 || pb.row_count > kQpMaxRows) return false;
-  double g_max = 0.0;
-  for (int i = 0; i < 36; ++i) {
-    if (!bounded(pb.G.data()[i])) return false;
-    g_max = std::max(g_max, std::abs(pb.G.data()[i]));
-  }
   for (int i = 0; i < 6; ++i) {
     if (!bounded(pb.x_target[i])) return false;
   }
-  if ((pb.G - pb.G.transpose()).cwiseAbs().maxCoeff() > 1e-9 * g_max) return false;
-  for (int i = 0; i < pb.row_count; ++i) {
-    const QpRow& row = pb.rows[i];
-    for (int j = 0; j < 6; ++j) {
-      if (!bounded(row.a[j])) return false;
+  double g_max = 0.0;
+  diagonal = true;
+  for (int i = 0; i < 36; ++i) {
+    const double g = pb.G.data()[i];
+    if (!bounded(g)) return false;
+    g_max = std::max(g_max, std::abs(g));
+    if (i % 7 != 0 && g != 0.0) diagonal = false;
+  }
+  for (int i = 0; i < 6 && !diagonal; ++i) {
+    for (int j = 0; j < i; ++j) {
+      if (std::abs(pb.G(i, j) - pb.G(j, i)) > 1e-9 * g_max) return false;
     }
-    if (!bounded(row.b) || !bounded(row.compliance) || row.compliance < 0.0) return false;
   }
 
-  // Cholesky of G; pivots bounded away from zero absolutely and relative to the largest.
-  const Eigen::LLT<Mat6> llt(pb.G);
-  if (llt.info() != Eigen::Success) return false;
-  const Mat6 l = llt.matrixL();
-  const double p_min = l.diagonal().cwiseAbs2().minCoeff();
-  const double p_max = l.diagonal().cwiseAbs2().maxCoeff();
-  if (!(p_min >= 1.0 / kQpMaxMagnitude) || !(p_min >= kSpdTol * p_max)) return false;
-  l_inv = l.triangularView<Eigen::Lower>().solve(Mat6::Identity());
+  // Cholesky pivots L_ii^2 must be bounded away from zero, absolutely and relative to the largest.
+  Vec6 pivots;
+  Mat6 l;
+  if (diagonal) {
+    pivots = pb.G.diagonal();
+  } else {
+    const Eigen::LLT<Mat6> llt(pb.G);
+    if (llt.info() != Eigen::Success) return false;
+    l = llt.matrixL();
+    pivots = l.diagonal().cwiseAbs2();
+  }
+  const double p_min = pivots.minCoeff();
+  if (!(p_min >= 1.0 / kQpMaxMagnitude) || !(p_min >= kSpdTol * pivots.maxCoeff())) return false;
+
+  // L^-1 by substitution, column by column (Eigen sends a matrix right-hand side through its
+  // blocked general path, several times slower at 6 x 6).
+  l_inv.setZero();
+  if (diagonal) {
+    l_inv.diagonal() = pivots.cwiseSqrt().cwiseInverse();
+    return true;
+  }
+  for (int j = 0; j < 6; ++j) {
+    l_inv(j, j) = 1.0 / l(j, j);
+    for (int i = j + 1; i < 6; ++i) {
+      double sum = 0.0;
+      for (int k = j; k < i; ++k) sum += l(i, k) * l_inv(k, j);
+      l_inv(i, j) = -sum / l(i, i);
+    }
+  }
   return l_inv.allFinite();
 }
 
@@ -148,6 +172,7 @@ double schur(const Work& w, int p, const ActiveVec& r) {
 void dependent_rates(const Work& w, int p, ActiveVec& r) {
   constexpr int kMaxAug = 6 + kQpMaxActive;
   const int k = w.k;
+  if (k == 0) return;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxAug, kQpMaxActive> aug(6 + k, k);
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxAug, 1> rhs(6 + k);
   aug.setZero();
@@ -349,26 +374,40 @@ QpStatus QpSolver::solve(const QpProblem& problem, QpResult& result, bool warm) 
   result.active = 0;
   result.seeded = 0;
 
-  // Stage 1: input checks; bad input answers x_t made finite.
+  // Stage 1: input checks of G and x_t (the rows are checked in stage 2); bad input answers x_t
+  // made finite.
   Work w;
-  if (!check_input(problem, w.l_inv)) {
-    result.x = finite_target(problem.x_target);
-    result.status = QpStatus::BadInput;
-    return result.status;
-  }
   w.pb = &problem;
   w.m = problem.row_count;
+  bool good = factor_weight(problem, w.l_inv, w.diagonal_g);
 
-  // Stage 2: rows in the metric of G: u_i = L^-1 a_i, beta_i = b_i - a_i^T x_t, M_ii, scales.
+  // Stage 2: rows checked (bounded, compliance >= 0) and moved into the metric of G:
+  // u_i = L^-1 a_i, beta_i = b_i - a_i^T x_t, M_ii, violation scales.
   const Vec6 x_abs = problem.x_target.cwiseAbs();
-  for (int i = 0; i < w.m; ++i) {
+  const Vec6 l_diag = w.l_inv.diagonal();
+  for (int i = 0; good && i < w.m; ++i) {
     const QpRow& row = problem.rows[i];
-    w.u[i].noalias() = w.l_inv * row.a;
+    const Vec6 a_abs = row.a.cwiseAbs();
+    if (!(a_abs.array() <= kQpMaxMagnitude).all() || !bounded(row.b) || !bounded(row.compliance) ||
+        row.compliance < 0.0) {
+      good = false;
+      break;
+    }
+    if (w.diagonal_g) {
+      w.u[i] = l_diag.cwiseProduct(row.a);
+    } else {
+      w.u[i].noalias() = w.l_inv * row.a;
+    }
     w.beta[i] = row.b - row.a.dot(problem.x_target);
     w.diag[i] = w.u[i].squaredNorm() + row.compliance;
     w.inv_norm[i] = w.diag[i] > 0.0 ? 1.0 / std::sqrt(w.diag[i]) : 1.0;
-    w.tol[i] = kFeasTol * (std::abs(row.b) + row.a.cwiseAbs().dot(x_abs)) * w.inv_norm[i];
+    w.tol[i] = kFeasTol * (std::abs(row.b) + a_abs.dot(x_abs)) * w.inv_norm[i];
     w.slot[i] = -1;
+  }
+  if (!good) {
+    result.x = finite_target(problem.x_target);
+    result.status = QpStatus::BadInput;
+    return result.status;
   }
   w.y.setZero();
 
