@@ -28,8 +28,8 @@
 // the counts differ somewhat for the same contact region. FCL's CollisionResult is cleared and
 // reused (its vector keeps its capacity); ours writes into a preallocated ContactSet.
 // Until the tight tree builder lands, the molar's leaves are spheres of 0.25 mm tangent under every
-// scan vertex (same leaf size and count range, not its surface accuracy); the explorer chain is
-// generated here from ExplorerParams until make_explorer_spheres lands.
+// scan vertex (same leaf size and count range, not its surface accuracy). The explorer is
+// make_explorer_spheres() with its defaults (173 spheres, tip radius 0.05 mm).
 //
 // Scenarios: the tip resting on the occlusal surface with the shank clear (sliding); the tip down in
 // the central fossa (fissure: several walls at once); the tool 1 mm above the tooth (free space
@@ -127,52 +127,6 @@ cariesim::SphereTree tooth_tree(const Tooth& tooth) {
   return cariesim::build_hierarchy(leaves, 4);
 }
 
-// The explorer's centre line and radius (mm) at arc length s from the tip: a straight tip segment
-// along +z, a circular working end, a straight tapered shank, then the handle (ExplorerParams'
-// defaults). Returns the point; `radius` gets the wire radius there. The wire tapers linearly from
-// the tip radius to kTipSegmentEnd at the end of the tip segment, then to working_end_radius.
-Vec3 explorer_point(const cariesim::ExplorerParams& p, double s, double& radius) {
-  constexpr double kTipSegmentEnd = 0.2;  // mm
-  const double bend_len = p.bend_radius * p.bend_angle;
-  if (s <= p.tip_segment) {
-    radius = p.tip_radius + (kTipSegmentEnd - p.tip_radius) * s / p.tip_segment;
-    return {0.0, 0.0, s};
-  }
-  if (s <= p.tip_segment + bend_len) {
-    const double th = (s - p.tip_segment) / p.bend_radius;
-    radius = kTipSegmentEnd + (p.working_end_radius - kTipSegmentEnd) * th / p.bend_angle;
-    return {p.bend_radius * (1.0 - std::cos(th)), 0.0, p.tip_segment + p.bend_radius * std::sin(th)};
-  }
-  const double th = p.bend_angle;
-  const Vec3 end(p.bend_radius * (1.0 - std::cos(th)), 0.0, p.tip_segment + p.bend_radius * std::sin(th));
-  const Vec3 dir(std::sin(th), 0.0, std::cos(th));
-  const double t = s - p.tip_segment - bend_len;
-  radius = t <= p.shank_length
-               ? p.working_end_radius + (p.shank_radius - p.working_end_radius) * t / p.shank_length
-               : p.handle_radius;
-  return end + dir * t;
-}
-
-// The explorer as a chain of spheres, tip first, spaced so the chain's surface sags at most
-// `max_gap` mm between neighbours (dense at the thin tip, sparse on the handle).
-std::vector<cariesim::ToolSphere> explorer_chain(double max_gap) {
-  const cariesim::ExplorerParams p;
-  const double length = p.tip_segment + p.bend_radius * p.bend_angle + p.shank_length + p.handle_length;
-  std::vector<cariesim::ToolSphere> chain;
-  double s = 0.0;
-  while (s <= length) {
-    double r = 0.0;
-    const Vec3 c = explorer_point(p, s, r);
-    const auto segment = static_cast<uint16_t>(s <= p.tip_segment                                  ? 0
-                                               : s <= p.tip_segment + p.bend_radius * p.bend_angle ? 1
-                                               : s <= length - p.handle_length                     ? 2
-                                                                                                   : 3);
-    chain.push_back({c, r, segment});
-    s += 2.0 * std::sqrt(std::max(2.0 * r * max_gap - max_gap * max_gap, 1e-6));
-  }
-  return chain;
-}
-
 // Tool orientation: +z (toward the handle) along the tooth axis, tilted 20 degrees about an axis
 // across the tooth, as a hand holds the explorer over an occlusal surface.
 cariesim::Quat tool_orientation(const Tooth& tooth) {
@@ -242,7 +196,7 @@ const World& world() {
     obj.name = "tooth46";
     obj.tree = tooth_tree(w.tooth);
     w.objects.push_back(std::move(obj));
-    w.chain = explorer_chain(0.02);
+    w.chain = cariesim::make_explorer_spheres();
     w.tool_tree = cariesim::build_tool_tree(w.chain, 4);
     cariesim::PlacedTool placed(w.tool_tree);
     const cariesim::Quat q = tool_orientation(w.tooth);
