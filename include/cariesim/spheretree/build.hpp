@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "cariesim/common/progress.hpp"
@@ -32,7 +33,21 @@ struct TreeParams {
   int branching = 4;             ///< children per inner node of the hierarchy
 };
 
-/// Builds a tree of the solid bounded by `shape` (its negative region).
+/// Level-set resolution for building a tree of a mesh: the voxel the mode's fidelity needs (tight:
+/// (10/3) * tolerance, 0.05 mm for 0.015 mm; octree: 1/8 of a leaf cell), coarsened when the band
+/// would exceed a memory budget (a 100 x 100 x 20 mm cube stays around 20 million band voxels).
+struct LevelSetResolution {
+  double voxel = 0.05;     ///< mm
+  double half_band = 0.25; ///< mm, each side of the surface
+};
+/// Throws cariesim::Error for an empty mesh.
+LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams& params);
+
+/// Builds a tree of the solid bounded by `shape` (its negative region). Tight mode resolves sphere
+/// radii beyond the narrow band through a coarser rebuild of the same surface, so the band may be
+/// thin (a few voxels). Leaves come out flagged kLeafOnExposedSurface (surface leaves) or
+/// kLeafInterior (fillers, octree cells inside), leaf_depth relative to `shape`; classify_leaves
+/// refines both against the object's outer surface. Throws cariesim::Error for bad parameters.
 SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params,
                              const ProgressFn& progress = {});
 
@@ -40,8 +55,9 @@ SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params,
 SphereTree build_tool_tree(const std::vector<ToolSphere>& spheres, int branching = 4);
 
 /// Sets leaf_depth (depth of each leaf centre below `outer`'s surface, mm) and the surface flags:
-/// kLeafOnExposedSurface when the leaf touches `outer`'s zero set, kLeafOnLesionWall when it touches
-/// an internal boundary instead, kLeafInterior when it touches neither within `touch_mm`.
+/// kLeafOnExposedSurface when the leaf reaches within `touch_mm` of `outer`'s zero set,
+/// kLeafOnLesionWall when it does not but was built on its own part's surface (an internal
+/// boundary), kLeafInterior otherwise (fillers).
 void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm);
 
 /// Sets each leaf's material from a callback given the leaf centre (mm) and its depth (mm).
@@ -58,9 +74,27 @@ struct Deviation {
   std::size_t samples = 0;
 };
 /// Samples `samples` points uniformly on `surface` (seeded) and measures |distance to the union of
-/// leaves|; also every leaf's poke-out beyond `surface` (via `shape`). p50/p95/max are over both sets.
+/// leaves| (min over leaves of |x - c| - r, pruned through the tree); also every leaf's poke-out
+/// beyond the surface, r + D(c) with D the signed distance of `shape`. p50/p95/max are over the
+/// sample distances together with the leaves that do poke out (poke-out > 0). Throws
+/// cariesim::Error for an empty tree or surface.
 Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface, const LevelSet& shape,
                             std::size_t samples = 100000, uint64_t seed = 1);
+
+/// What `cariesim tree` reports about a build.
+struct TreeReport {
+  TreeMode mode = TreeMode::Tight;
+  std::size_t leaves = 0;
+  int levels = 0;
+  std::vector<std::size_t> nodes_per_level;  ///< level 0 = root
+  double build_seconds = 0.0;                ///< s, wall clock of the build
+  Deviation deviation;
+};
+/// Collects a report from a built tree, its build time (s) and its measured deviation.
+TreeReport make_tree_report(const SphereTree& tree, double build_seconds, const Deviation& deviation);
+/// One-line JSON object: mode, leaves, levels, nodes_per_level, build_seconds and deviation_mm
+/// {p50, p95, max, max_poke_out, max_fall_short, samples}.
+std::string format_tree_report_json(const TreeReport& report);
 
 /// Checks the structural invariants: every child sphere inside its parent (within `slack_mm`),
 /// contiguous children, leaf tables consistent. Returns an empty string when valid, else the reason.

@@ -27,7 +27,7 @@ struct LesionShape {
   static std::vector<Eigen::Vector2d> square(double side);
   static std::vector<Eigen::Vector2d> triangle(double side);
 
-  /// Exact signed distance (mm, negative inside) of the analytic shape at p (ellipsoid: approximate).
+  /// Exact signed distance (mm, negative inside) of the analytic shape at p.
   [[nodiscard]] double distance(const Vec3& p) const;
   /// The level set of this shape, sampled on `voxel_mm` voxels around it.
   [[nodiscard]] LevelSet to_level_set(double voxel_mm, double half_band_mm) const;

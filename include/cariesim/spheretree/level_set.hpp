@@ -37,8 +37,10 @@ class LevelSet {
   /// Zero iso-surface as a closed triangle mesh (display meshes).
   [[nodiscard]] TriangleMesh to_mesh(double adaptivity = 0.0) const;
 
+  /// The OpenVDB grid behind this level set (defined in src/spheretree only).
   struct Impl;
   [[nodiscard]] const Impl& impl() const { return *impl_; }
+  [[nodiscard]] Impl& impl() { return *impl_; }
 
  private:
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,157 @@
+#include "spheretree/build_support.hpp"
+
+#include <openvdb/tools/Dense.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace cariesim::detail {
+
+namespace {
+// Largest coarse grid (voxels in the bounding box) the deep-distance fallback may use.
+constexpr double kMaxCoarseVoxels = 4.0e6;
+// The coarse grid is at least this many fine voxels per coarse voxel.
+constexpr double kCoarseFactor = 4.0;
+}  // namespace
+
+Eigen::AlignedBox3d vertex_bounds(const TriangleMesh& mesh) {
+  Eigen::AlignedBox3d box;
+  for (const Vec3f& v : mesh.vertices) box.extend(v.cast<double>());
+  return box;
+}
+
+double mesh_area(const TriangleMesh& mesh) {
+  double area = 0.0;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 a = mesh.vertices[t[0]].cast<double>();
+    const Vec3 b = mesh.vertices[t[1]].cast<double>();
+    const Vec3 c = mesh.vertices[t[2]].cast<double>();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return area;
+}
+
+// Picks triangles by cumulative area, then a uniform point inside each (square-root barycentrics).
+std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, uint64_t seed) {
+  std::vector<Vec3> out;
+  if (mesh.triangles.empty() || count == 0) return out;
+  std::vector<double> cumulative(mesh.triangles.size());
+  double total = 0.0;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const auto& t = mesh.triangles[i];
+    const Vec3 a = mesh.vertices[t[0]].cast<double>();
+    const Vec3 b = mesh.vertices[t[1]].cast<double>();
+    const Vec3 c = mesh.vertices[t[2]].cast<double>();
+    total += 0.5 * (b - a).cross(c - a).norm();
+    cumulative[i] = total;
+  }
+  if (!(total > 0.0)) return out;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  out.reserve(count);
+  for (std::size_t s = 0; s < count; ++s) {
+    const double pick = unit(rng) * total;
+    const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), pick);
+    const std::size_t i = std::min<std::size_t>(static_cast<std::size_t>(it - cumulative.begin()),
+                                                cumulative.size() - 1);
+    const auto& t = mesh.triangles[i];
+    const double u = std::sqrt(unit(rng));
+    const double v = unit(rng);
+    out.push_back((1.0 - u) * mesh.vertices[t[0]].cast<double>() + u * (1.0 - v) * mesh.vertices[t[1]].cast<double>() +
+                  u * v * mesh.vertices[t[2]].cast<double>());
+  }
+  return out;
+}
+
+// The coarse fallback: the fine field sampled on coarse voxels over the whole box (exact near the
+// surface, clamped deeper), meshed (volumeToMesh), and that light mesh turned back into a level set
+// whose bands reach the needed distances (meshToVolume computes exact distances to the mesh).
+DistanceField::DistanceField(const LevelSet& shape, double needed_depth_mm, double needed_outside_mm,
+                             double min_coarse_voxel_mm)
+    : fine_(*shape.impl().grid), voxel_(shape.voxel_size()) {
+  const double band = shape.half_band();
+  reliable_ = std::max(band - 1.5 * voxel_, 0.5 * voxel_);
+  if (needed_depth_mm <= reliable_ && needed_outside_mm <= reliable_) return;
+  const Eigen::AlignedBox3d box = shape.bounds();
+  const Vec3 extent = box.sizes();
+  const double coarse_voxel = std::max({kCoarseFactor * voxel_, std::cbrt(extent.prod() / kMaxCoarseVoxels),
+                                        min_coarse_voxel_mm});
+  const auto transform = openvdb::math::Transform::createLinearTransform(coarse_voxel);
+
+  // Sample the fine field densely on the coarse voxels (parallel, into a dense block, then sparse).
+  auto sampled = openvdb::FloatGrid::create(static_cast<float>(reliable_));
+  sampled->setTransform(transform);
+  sampled->setGridClass(openvdb::GRID_LEVEL_SET);
+  {
+    const Eigen::Vector3i lo = (box.min() / coarse_voxel).array().floor().cast<int>().matrix();
+    const Eigen::Vector3i hi = (box.max() / coarse_voxel).array().ceil().cast<int>().matrix();
+    const openvdb::CoordBBox bbox(openvdb::Coord(lo.x(), lo.y(), lo.z()), openvdb::Coord(hi.x(), hi.y(), hi.z()));
+    openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(bbox);
+    const openvdb::Coord dim = bbox.dim();
+    tbb::parallel_for(tbb::blocked_range<int>(0, dim.x()), [&](const tbb::blocked_range<int>& range) {
+      GridSampler fine(fine_);
+      for (int i = range.begin(); i != range.end(); ++i) {
+        for (int j = 0; j < dim.y(); ++j) {
+          for (int k = 0; k < dim.z(); ++k) {
+            const openvdb::Coord ijk(lo.x() + i, lo.y() + j, lo.z() + k);
+            const double d = fine.distance(Vec3(ijk.x(), ijk.y(), ijk.z()) * coarse_voxel);
+            dense.setValue(ijk, static_cast<float>(std::clamp(d, -reliable_, reliable_)));
+          }
+        }
+      }
+    });
+    openvdb::tools::copyFromDense(dense, *sampled, -1.0f);
+  }
+
+  // Mesh it and rebuild with wide bands.
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*sampled, points, triangles, quads, 0.0, 0.0);
+  if (points.empty()) return;
+  for (const auto& t : triangles) quads.emplace_back(t[0], t[1], t[2], openvdb::util::INVALID_IDX);
+  // meshToVolume reads index-space points.
+  for (auto& p : points) p = transform->worldToIndex(p);
+  const double depth = std::min(needed_depth_mm, 0.5 * extent.minCoeff()) + coarse_voxel;
+  const double outside = std::max(needed_outside_mm, 0.0) + coarse_voxel;
+  const openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec4I> mesh(points, quads);
+  coarse_ = openvdb::tools::meshToVolume<openvdb::FloatGrid>(mesh, *transform,
+                                                             static_cast<float>(outside / coarse_voxel + 2.0),
+                                                             static_cast<float>(depth / coarse_voxel + 2.0));
+}
+
+DistanceField::Probe::Probe(const DistanceField& field) : field_(field), fine_(field.fine_) {
+  if (field.coarse_) coarse_.emplace(*field.coarse_);
+}
+
+double DistanceField::Probe::distance(const Vec3& p) {
+  const double d = fine_.distance(p);
+  if (!coarse_ || std::abs(d) < field_.reliable_) return d;
+  // The fine grid only says |d| >= reliable band; the coarse grid says how much more.
+  const double dc = coarse_->distance(p);
+  return d < 0.0 ? std::min(dc, -field_.reliable_) : std::max(dc, field_.reliable_);
+}
+
+Vec3 DistanceField::Probe::gradient(const Vec3& p) {
+  const double h = 0.5 * field_.voxel_;
+  Vec3 g;
+  for (int axis = 0; axis < 3; ++axis) {
+    Vec3 step = Vec3::Zero();
+    step[axis] = h;
+    g[axis] = distance(p + step) - distance(p - step);
+  }
+  const double n = g.norm();
+  return n > 0.0 ? Vec3(g / n) : Vec3::Zero();
+}
+
+PointIndex::PointIndex(const std::vector<Vec3>& points, double cell_mm) : array_{&points} {
+  ensure_openvdb_initialized();
+  grid_ = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(array_, cell_mm);
+}
+
+}  // namespace cariesim::detail

@@ -1,0 +1,247 @@
+// Tight sphere trees (DESIGN.md §3): inscribed spheres under the surface whose union follows the
+// surface to a tolerance, plus a few large filler spheres inside, with inner levels from
+// build_hierarchy.
+//
+// The surface leaves come from a greedy cover of dense surface samples (spacing 2 x tolerance). For
+// a sample x with outward normal n, the largest sphere tangent at x is centred at c = x - r n, r the
+// largest radius up to max_radius for which the sphere still stays inside: D(c) + r <= eps, found by
+// bisection on the signed distance D. An uncovered sample gets its tangent sphere, and every sample
+// within `tolerance` of that sphere counts as covered; flat regions thus get few large spheres and
+// ridges many small ones. The cover starts with a sparse set of scouts sorted by radius (largest
+// first) and then sweeps every sample still uncovered. Each sphere is finally clipped so that it
+// reaches past no surface sample by more than a fifth of the tolerance: that check is exact against
+// the samples, so the coarse deep part of D (beyond the narrow band) only guides the radius search.
+
+#include <tbb/parallel_for.h>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "cariesim/spheretree/hierarchy.hpp"
+#include "spheretree/build_support.hpp"
+
+namespace cariesim::detail {
+
+namespace {
+
+// Surface sample spacing per unit of tolerance, and the sample budget.
+constexpr double kSpacingPerTolerance = 2.0;
+constexpr double kMaxSamples = 1.5e6;
+// Bisection steps for a tangent sphere's radius.
+constexpr int kBisectionSteps = 11;
+// A sample's own sphere must reach it within this fraction of the tolerance (by the distance field,
+// whose deep part is coarse; the sample check below is exact).
+constexpr double kReachFraction = 0.5;
+// One sample in kScoutStride gets its tangent sphere up front to order the cover.
+constexpr uint32_t kScoutStride = 8;
+// A sphere may reach past a surface sample by at most this fraction of the tolerance.
+constexpr double kPokeFraction = 0.2;
+// Filler spheres stay this many tolerances (at least one voxel) inside the surface.
+constexpr double kFillerMarginTolerances = 2.0;
+// Attempts at a sample's sphere when the sample check shrinks it below reaching the sample.
+constexpr int kPlacementAttempts = 3;
+
+// One surface sample: a point on the zero set and the outward unit normal there.
+struct Sample {
+  Vec3 x;
+  Vec3 n;
+  double reach = 0.0;  // mm, radius of the largest tangent sphere found for it
+};
+
+// Projects a point onto the zero set along the gradient (one Newton step: the points come from the
+// zero set's own mesh, so they start within a small fraction of a voxel) and returns the normal.
+Sample project(DistanceField::Probe& probe, const Vec3& p) {
+  Sample s{p, Vec3::UnitZ()};
+  const Vec3 g = probe.gradient(s.x);
+  if (g.isZero()) return s;
+  s.x -= probe.distance(s.x) * g;
+  const Vec3 n = probe.gradient(s.x);
+  s.n = n.isZero() ? g : n;
+  return s;
+}
+
+// Largest r in [0, max_r] whose tangent sphere at the sample still reaches it (D(x - r n) + r <= eps).
+double tangent_radius(DistanceField::Probe& probe, const Sample& s, double max_r, double eps) {
+  if (probe.distance(s.x - max_r * s.n) + max_r <= eps) return max_r;
+  double lo = 0.0;
+  double hi = max_r;
+  for (int i = 0; i < kBisectionSteps; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (probe.distance(s.x - mid * s.n) + mid <= eps) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo;
+}
+
+}  // namespace
+
+SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
+  const double tol = params.tolerance;
+  const double voxel = shape.voxel_size();
+
+  // Dense samples on the zero set, spaced by the tolerance (within the budget).
+  report(progress, "tight: surface", 0.0);
+  const TriangleMesh surface = shape.to_mesh(0.0);
+  const double area = mesh_area(surface);
+  if (!(area > 0.0)) return {};
+  const double spacing = std::max(kSpacingPerTolerance * tol, std::sqrt(area / kMaxSamples));
+  const auto sample_count = static_cast<std::size_t>(std::ceil(area / (spacing * spacing)));
+  const std::vector<Vec3> raw = sample_surface(surface, sample_count, 1);
+  const Eigen::AlignedBox3d box = vertex_bounds(surface);
+
+  // The distance field must resolve depths down to the largest sphere.
+  const DistanceField field(shape, params.max_radius + tol);
+
+  // Scouts: every kScoutStride-th sample, projected with its largest tangent sphere found up front
+  // (parallel), so the cover can start with the largest spheres.
+  report(progress, "tight: tangent spheres", 0.1);
+  const double reach_eps = kReachFraction * tol;
+  std::vector<uint32_t> order;
+  for (uint32_t i = 0; i < raw.size(); i += kScoutStride) order.push_back(i);
+  std::vector<Sample> scouts(order.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      DistanceField::Probe probe(field);
+                      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                        scouts[k] = project(probe, raw[order[k]]);
+                        scouts[k].reach = tangent_radius(probe, scouts[k], params.max_radius, reach_eps);
+                      }
+                    });
+  std::vector<uint32_t> by_reach(order.size());
+  std::iota(by_reach.begin(), by_reach.end(), 0u);
+  std::stable_sort(by_reach.begin(), by_reach.end(),
+                   [&](uint32_t a, uint32_t b) { return scouts[a].reach > scouts[b].reach; });
+
+  // Greedy cover: the scouts largest sphere first, then every sample still uncovered (in sample
+  // order, which is random over the surface). Deterministic: ties keep the sample order.
+  report(progress, "tight: cover", 0.3);
+  const PointIndex index(raw, std::max(4.0 * spacing, 0.25 * params.max_radius));
+  PointIndex::Query query(index);
+  DistanceField::Probe probe(field);
+  std::vector<uint8_t> covered(raw.size(), 0);
+  std::vector<LeafSphere> leaves;
+  std::vector<std::size_t> near;
+  const double poke = kPokeFraction * tol;
+  std::size_t unplaced = 0;
+  bool capped = false;
+  const std::size_t steps = by_reach.size() + raw.size();
+  for (std::size_t step = 0; step < steps && !capped; ++step) {
+    const bool scouting = step < by_reach.size();
+    const uint32_t i = scouting ? order[by_reach[step]] : static_cast<uint32_t>(step - by_reach.size());
+    if (covered[i]) continue;
+    covered[i] = 1;
+    if (leaves.size() >= params.max_leaves) {
+      capped = true;
+      break;
+    }
+    if (step % 8192 == 0) report(progress, "tight: cover", 0.3 + 0.5 * static_cast<double>(step) / steps);
+    Sample s = scouting ? scouts[by_reach[step]] : project(probe, raw[i]);
+    if (!scouting) s.reach = tangent_radius(probe, s, params.max_radius, reach_eps);
+
+    // The sphere tangent at the sample, never reaching past a surface sample by more than `poke`
+    // (exact against the samples, whatever the error of the deep distance); when that shrinks it
+    // so much that it no longer reaches its own sample, try again with the reach capped there.
+    Vec3 c;
+    double r = 0.0;
+    for (int attempt = 0; attempt < kPlacementAttempts; ++attempt) {
+      c = s.x - s.reach * s.n;
+      r = s.reach;
+      near.clear();
+      query.for_each_within(c, r + tol, [&](std::size_t j) { near.push_back(j); });
+      for (std::size_t j : near) r = std::min(r, (raw[j] - c).norm() + poke);
+      if (s.reach - r <= tol || !(r > params.min_radius)) break;
+      s.reach = tangent_radius(probe, s, r, reach_eps);
+    }
+    if (!(r >= params.min_radius)) {
+      ++unplaced;
+      continue;
+    }
+    // Every sample within the tolerance of the sphere is covered.
+    for (std::size_t j : near) {
+      if ((raw[j] - c).norm() - r <= tol) covered[j] = 1;
+    }
+    LeafSphere leaf{};
+    leaf.center = c.cast<float>();
+    leaf.radius = static_cast<float>(r);
+    leaf.flags = kLeafOnExposedSurface;
+    leaf.depth = static_cast<float>(-probe.distance(c));
+    leaves.push_back(leaf);
+  }
+  if (capped) {
+    spdlog::warn("tight tree: the leaf cap ({}) was reached before the surface was covered", params.max_leaves);
+    report(progress, "tight: leaf cap reached", 0.8);
+  }
+  if (unplaced > 0) {
+    spdlog::debug("tight tree: {} samples needed a sphere smaller than min_radius {} mm", unplaced,
+                  params.min_radius);
+  }
+
+  // Filler spheres: a grid of interior points, each inside some leaf; deepest uncovered point first.
+  if (params.fill_interior && !capped) {
+    report(progress, "tight: interior", 0.8);
+    const double step = std::max(0.5 * params.max_radius, 2.0 * voxel);
+    const double margin = std::max(kFillerMarginTolerances * tol, voxel);
+    // Filler radii are clipped against the surface samples, so a coarse deep distance will do.
+    const DistanceField deep(shape, 0.5 * box.sizes().maxCoeff(), 0.0, step);
+    DistanceField::Probe deep_probe(deep);
+    std::vector<Vec3> points;
+    std::vector<double> depth;
+    for (double x = box.min().x() + 0.5 * step; x < box.max().x(); x += step) {
+      for (double y = box.min().y() + 0.5 * step; y < box.max().y(); y += step) {
+        for (double z = box.min().z() + 0.5 * step; z < box.max().z(); z += step) {
+          const Vec3 p(x, y, z);
+          const double d = -deep_probe.distance(p);
+          if (d > 0.5 * step) {
+            points.push_back(p);
+            depth.push_back(d);
+          }
+        }
+      }
+    }
+    if (!points.empty()) {
+      const PointIndex interior(points, step);
+      PointIndex::Query inner(interior);
+      std::vector<uint8_t> inside(points.size(), 0);
+      const auto mark = [&](const Vec3& c, double r) {
+        inner.for_each_within(c, r, [&](std::size_t j) { inside[j] = 1; });
+      };
+      for (const LeafSphere& l : leaves) mark(l.center.cast<double>(), l.radius);
+      std::vector<uint32_t> deepest(points.size());
+      std::iota(deepest.begin(), deepest.end(), 0u);
+      std::stable_sort(deepest.begin(), deepest.end(), [&](uint32_t a, uint32_t b) { return depth[a] > depth[b]; });
+      for (uint32_t i : deepest) {
+        if (inside[i] || leaves.size() >= params.max_leaves) continue;
+        inside[i] = 1;
+        // Inscribed with a margin, checked against the surface samples (the deep distance is coarse).
+        double r = depth[i] - margin;
+        query.for_each_within(points[i], r + margin, [&](std::size_t j) {
+          r = std::min(r, (raw[j] - points[i]).norm() - margin);
+        });
+        if (r < params.min_radius) continue;
+        mark(points[i], r);
+        LeafSphere leaf{};
+        leaf.center = points[i].cast<float>();
+        leaf.radius = static_cast<float>(r);
+        leaf.flags = kLeafInterior;
+        leaf.depth = static_cast<float>(depth[i]);
+        leaves.push_back(leaf);
+      }
+    }
+  }
+
+  // Inner levels over the leaves.
+  report(progress, "tight: hierarchy", 0.95);
+  SphereTree tree = build_hierarchy(leaves, params.branching);
+  tree.mode = TreeMode::Tight;
+  report(progress, "tight: done", 1.0);
+  return tree;
+}
+
+}  // namespace cariesim::detail

@@ -1,0 +1,292 @@
+// Tree cache files (DESIGN.md §3: "a cache hit loads in milliseconds").
+//
+// Layout, little-endian, no padding between fields:
+//   magic "CSTREE\r\n" (8 bytes), format version (u32), key (u64),
+//   mode (u8), levels (i32),
+//   node count (u64) + nodes (32 bytes each: centre 3 x f32, radius f32, first u32, count u16,
+//   material u16, leaf u32, flags u32),
+//   leaf count (u64) + leaf_nodes (u32 each) + leaf_depth (f32 each),
+//   vertex count (u64) + vertices (3 x f32 each), triangle count (u64) + triangles (3 x u32 each),
+//   FNV-1a 64 of every byte before it (u64).
+// Anything that does not read back exactly (short file, wrong magic, version or key, counts that
+// overrun the file, checksum mismatch, a tree that fails check_tree, a triangle index out of range)
+// makes the entry unusable: it is removed and the caller rebuilds.
+
+#include "cariesim/spheretree/cache.hpp"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <bit>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <system_error>
+#include <type_traits>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "cariesim/spheretree/build.hpp"
+
+namespace cariesim {
+
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "the cache format is little-endian");
+
+// A SphereNode as stored (Eigen's vector is not trivially copyable, so nodes are copied field by field).
+struct StoredNode {
+  float center[3];
+  float radius;
+  uint32_t first;
+  uint16_t count;
+  uint16_t material;
+  uint32_t leaf;
+  uint32_t flags;
+};
+static_assert(sizeof(StoredNode) == 32, "stored nodes are 32 bytes");
+
+constexpr char kMagic[8] = {'C', 'S', 'T', 'R', 'E', 'E', '\r', '\n'};
+constexpr uint32_t kVersion = 1;
+constexpr uint64_t kFnvOffset = 1469598103934665603ull;
+constexpr uint64_t kFnvPrime = 1099511628211ull;
+
+uint64_t fnv1a(uint64_t hash, const void* data, std::size_t size) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= bytes[i];
+    hash *= kFnvPrime;
+  }
+  return hash;
+}
+
+// Appends raw bytes of values to a buffer.
+class Writer {
+ public:
+  template <typename T>
+  void put(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    put_bytes(&value, sizeof(T));
+  }
+  template <typename T>
+  void put_array(const std::vector<T>& values) {
+    put<uint64_t>(values.size());
+    put_bytes(values.data(), values.size() * sizeof(T));
+  }
+  void put_bytes(const void* data, std::size_t size) {
+    const auto* p = static_cast<const char*>(data);
+    buffer_.insert(buffer_.end(), p, p + size);
+  }
+  [[nodiscard]] const std::vector<char>& buffer() const { return buffer_; }
+
+ private:
+  std::vector<char> buffer_;
+};
+
+// Reads raw values back; every read checks the remaining length.
+class Reader {
+ public:
+  Reader(const char* data, std::size_t size) : data_(data), size_(size) {}
+  template <typename T>
+  bool get(T& value) {
+    return get_bytes(&value, sizeof(T));
+  }
+  template <typename T>
+  bool get_array(std::vector<T>& values) {
+    uint64_t count = 0;
+    if (!get(count) || count > (size_ - pos_) / sizeof(T)) return false;
+    values.resize(count);
+    return get_bytes(values.data(), count * sizeof(T));
+  }
+  bool get_bytes(void* out, std::size_t size) {
+    if (size > size_ - pos_) return false;
+    std::memcpy(out, data_ + pos_, size);
+    pos_ += size;
+    return true;
+  }
+  [[nodiscard]] std::size_t position() const { return pos_; }
+
+ private:
+  const char* data_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+};
+
+std::filesystem::path entry_path(const std::filesystem::path& dir, uint64_t key) {
+  return dir / fmt::format("{:016x}.tree", key);
+}
+
+// Parses a whole file; returns false for anything unusable.
+bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
+  constexpr std::size_t kChecksumSize = sizeof(uint64_t);
+  if (bytes.size() < sizeof(kMagic) + kChecksumSize) return false;
+  const std::size_t body = bytes.size() - kChecksumSize;
+  uint64_t stored_checksum = 0;
+  std::memcpy(&stored_checksum, bytes.data() + body, kChecksumSize);
+  if (fnv1a(kFnvOffset, bytes.data(), body) != stored_checksum) return false;
+
+  Reader in(bytes.data(), body);
+  char magic[sizeof(kMagic)] = {};
+  uint32_t version = 0;
+  uint64_t stored_key = 0;
+  uint8_t mode = 0;
+  int32_t levels = 0;
+  if (!in.get_bytes(magic, sizeof(magic)) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) return false;
+  if (!in.get(version) || version != kVersion || !in.get(stored_key) || stored_key != key) return false;
+  if (!in.get(mode) || mode > static_cast<uint8_t>(TreeMode::Octree) || !in.get(levels)) return false;
+  SphereTree& tree = part.tree;
+  tree.mode = static_cast<TreeMode>(mode);
+  tree.levels = levels;
+  std::vector<StoredNode> nodes;
+  std::vector<std::array<float, 3>> vertices;
+  if (!in.get_array(nodes) || !in.get_array(tree.leaf_nodes) || !in.get_array(tree.leaf_depth) ||
+      !in.get_array(vertices) || !in.get_array(part.display.triangles) || in.position() != body) {
+    return false;
+  }
+  tree.nodes.resize(nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const StoredNode& s = nodes[i];
+    SphereNode& n = tree.nodes[i];
+    n.center = Vec3f(s.center[0], s.center[1], s.center[2]);
+    n.radius = s.radius;
+    n.first = s.first;
+    n.count = s.count;
+    n.material = s.material;
+    n.leaf = s.leaf;
+    n.flags = s.flags;
+  }
+  part.display.vertices.resize(vertices.size());
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    part.display.vertices[i] = Vec3f(vertices[i][0], vertices[i][1], vertices[i][2]);
+  }
+  for (const auto& t : part.display.triangles) {
+    for (uint32_t v : t) {
+      if (v >= vertices.size()) return false;
+    }
+  }
+  return check_tree(tree).empty();
+}
+
+}  // namespace
+
+BuildKey& BuildKey::add(std::string_view bytes) {
+  const uint64_t size = bytes.size();
+  hash_ = fnv1a(hash_, &size, sizeof(size));
+  hash_ = fnv1a(hash_, bytes.data(), bytes.size());
+  return *this;
+}
+
+BuildKey& BuildKey::add(const void* data, std::size_t size) {
+  hash_ = fnv1a(hash_, data, size);
+  return *this;
+}
+
+BuildKey& BuildKey::add(double value) {
+  // -0.0 and 0.0 describe the same build.
+  const double canonical = value == 0.0 ? 0.0 : value;
+  hash_ = fnv1a(hash_, &canonical, sizeof(canonical));
+  return *this;
+}
+
+BuildKey& BuildKey::add(int64_t value) {
+  hash_ = fnv1a(hash_, &value, sizeof(value));
+  return *this;
+}
+
+TreeCache::TreeCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
+
+std::filesystem::path TreeCache::default_dir() {
+  if (const char* env = std::getenv("CARIESIM_CACHE_DIR"); env && *env) return env;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::filesystem::path(xdg) / "cariesim";
+  if (const char* home = std::getenv("HOME"); home && *home) {
+    return std::filesystem::path(home) / ".cache" / "cariesim";
+  }
+  std::error_code ec;
+  const auto tmp = std::filesystem::temp_directory_path(ec);
+  return (ec ? std::filesystem::path("/tmp") : tmp) / "cariesim-cache";
+}
+
+std::optional<CachedPart> TreeCache::load(uint64_t key) const {
+  const std::filesystem::path path = entry_path(dir_, key);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
+  std::vector<char> bytes;
+  {
+    std::ifstream file(path, std::ios::binary);
+    if (!file) return std::nullopt;
+    file.seekg(0, std::ios::end);
+    const std::streamoff size = file.tellg();
+    if (size < 0) return std::nullopt;
+    bytes.resize(static_cast<std::size_t>(size));
+    file.seekg(0, std::ios::beg);
+    file.read(bytes.data(), size);
+    if (!file) bytes.clear();
+  }
+  CachedPart part;
+  if (!parse(bytes, key, part)) {
+    spdlog::warn("tree cache: ignoring unreadable entry {}", path.string());
+    std::filesystem::remove(path, ec);
+    return std::nullopt;
+  }
+  return part;
+}
+
+// Serialises into memory, writes a uniquely named temporary file beside the entry, then renames it
+// over the entry (atomic on POSIX), so readers never see half a file.
+void TreeCache::store(uint64_t key, const CachedPart& part) const {
+  Writer out;
+  out.put_bytes(kMagic, sizeof(kMagic));
+  out.put(kVersion);
+  out.put(key);
+  out.put(static_cast<uint8_t>(part.tree.mode));
+  out.put(static_cast<int32_t>(part.tree.levels));
+  std::vector<StoredNode> nodes(part.tree.nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const SphereNode& n = part.tree.nodes[i];
+    nodes[i] = {{n.center.x(), n.center.y(), n.center.z()}, n.radius, n.first, n.count, n.material, n.leaf, n.flags};
+  }
+  out.put_array(nodes);
+  out.put_array(part.tree.leaf_nodes);
+  out.put_array(part.tree.leaf_depth);
+  std::vector<std::array<float, 3>> vertices(part.display.vertices.size());
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const Vec3f& v = part.display.vertices[i];
+    vertices[i] = {v.x(), v.y(), v.z()};
+  }
+  out.put_array(vertices);
+  out.put_array(part.display.triangles);
+  const uint64_t checksum = fnv1a(kFnvOffset, out.buffer().data(), out.buffer().size());
+  out.put(checksum);
+
+  static std::atomic<uint64_t> counter{0};
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec) {
+    spdlog::warn("tree cache: cannot create {}: {}", dir_.string(), ec.message());
+    return;
+  }
+  const std::filesystem::path target = entry_path(dir_, key);
+  std::filesystem::path temp = target;
+  temp += fmt::format(".{}.{}.tmp", static_cast<long>(::getpid()), counter.fetch_add(1));
+  {
+    std::ofstream file(temp, std::ios::binary | std::ios::trunc);
+    file.write(out.buffer().data(), static_cast<std::streamsize>(out.buffer().size()));
+    file.close();
+    if (!file) {
+      spdlog::warn("tree cache: cannot write {}", temp.string());
+      std::filesystem::remove(temp, ec);
+      return;
+    }
+  }
+  std::filesystem::rename(temp, target, ec);
+  if (ec) {
+    spdlog::warn("tree cache: cannot move {} into place: {}", temp.string(), ec.message());
+    std::filesystem::remove(temp, ec);
+  }
+}
+
+}  // namespace cariesim
