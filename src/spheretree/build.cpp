@@ -50,8 +50,8 @@ void check_params(const TreeParams& p) {
 }  // namespace
 
 LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams& params) {
-  const Eigen::AlignedBox3d box = detail::vertex_bounds(mesh);
-  const double area = detail::mesh_area(mesh);
+  const Eigen::AlignedBox3d box = mesh.bounds();
+  const double area = mesh.area();
   if (box.isEmpty() || !(area > 0.0)) throw Error("choose_resolution: the mesh is empty or has no area");
   // What fidelity asks for.
   double voxel = 0.0;

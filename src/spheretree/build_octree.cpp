@@ -31,7 +31,7 @@ SphereTree build_octree_tree(const LevelSet& shape, const TreeParams& params, co
   const double voxel = shape.voxel_size();
 
   // The bounding cube of the zero set, padded by a voxel so that surface on the box still lies inside.
-  const Eigen::AlignedBox3d box = vertex_bounds(surface);
+  const Eigen::AlignedBox3d box = surface.bounds();
   const double root_edge = box.sizes().maxCoeff() + 2.0 * voxel;
   const double leaf_half_diagonal = 0.5 * std::sqrt(3.0) * root_edge / std::ldexp(1.0, params.depth);
   // A cell holds surface when |D(centre)| <= half diagonal; one voxel of slack absorbs the level

@@ -19,23 +19,6 @@ constexpr double kMaxCoarseVoxels = 4.0e6;
 constexpr double kCoarseFactor = 4.0;
 }  // namespace
 
-Eigen::AlignedBox3d vertex_bounds(const TriangleMesh& mesh) {
-  Eigen::AlignedBox3d box;
-  for (const Vec3f& v : mesh.vertices) box.extend(v.cast<double>());
-  return box;
-}
-
-double mesh_area(const TriangleMesh& mesh) {
-  double area = 0.0;
-  for (const auto& t : mesh.triangles) {
-    const Vec3 a = mesh.vertices[t[0]].cast<double>();
-    const Vec3 b = mesh.vertices[t[1]].cast<double>();
-    const Vec3 c = mesh.vertices[t[2]].cast<double>();
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
-  return area;
-}
-
 // Picks triangles by cumulative area, then a uniform point inside each (square-root barycentrics).
 std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, uint64_t seed) {
   std::vector<Vec3> out;
@@ -84,7 +67,7 @@ DistanceField::DistanceField(const LevelSet& shape, double needed_depth_mm, doub
   const auto transform = openvdb::math::Transform::createLinearTransform(coarse_voxel);
 
   // Sample the fine field densely on the coarse voxels (parallel, into a dense block, then sparse).
-  auto sampled = openvdb::FloatGrid::create(static_cast<float>(reliable_));
+  auto sampled = openvdb::FloatGrid::create(static_cast<float>(band));
   sampled->setTransform(transform);
   sampled->setGridClass(openvdb::GRID_LEVEL_SET);
   {
@@ -100,7 +83,7 @@ DistanceField::DistanceField(const LevelSet& shape, double needed_depth_mm, doub
           for (int k = 0; k < dim.z(); ++k) {
             const openvdb::Coord ijk(lo.x() + i, lo.y() + j, lo.z() + k);
             const double d = fine.distance(Vec3(ijk.x(), ijk.y(), ijk.z()) * coarse_voxel);
-            dense.setValue(ijk, static_cast<float>(std::clamp(d, -reliable_, reliable_)));
+            dense.setValue(ijk, static_cast<float>(std::clamp(d, -band, band)));
           }
         }
       }

@@ -21,12 +21,6 @@ namespace cariesim::detail {
 SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
 SphereTree build_octree_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
 
-/// Bounds of a mesh's vertices (mm); empty box for an empty mesh.
-Eigen::AlignedBox3d vertex_bounds(const TriangleMesh& mesh);
-
-/// Total area of a mesh (mm^2).
-double mesh_area(const TriangleMesh& mesh);
-
 /// `count` points distributed uniformly by area over the mesh (seeded, deterministic).
 std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, uint64_t seed);
 

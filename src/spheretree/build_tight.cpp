@@ -89,12 +89,12 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
   // Dense samples on the zero set, spaced by the tolerance (within the budget).
   report(progress, "tight: surface", 0.0);
   const TriangleMesh surface = shape.to_mesh(0.0);
-  const double area = mesh_area(surface);
+  const double area = surface.area();
   if (!(area > 0.0)) return {};
   const double spacing = std::max(kSpacingPerTolerance * tol, std::sqrt(area / kMaxSamples));
   const auto sample_count = static_cast<std::size_t>(std::ceil(area / (spacing * spacing)));
   const std::vector<Vec3> raw = sample_surface(surface, sample_count, 1);
-  const Eigen::AlignedBox3d box = vertex_bounds(surface);
+  const Eigen::AlignedBox3d box = surface.bounds();
 
   // The distance field must resolve depths down to the largest sphere.
   const DistanceField field(shape, params.max_radius + tol);

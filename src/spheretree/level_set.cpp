@@ -183,15 +183,8 @@ TriangleMesh LevelSet::to_mesh(double adaptivity) const {
     mesh.triangles.push_back({q[0], q[2], q[3]});
   }
 
-  // Signed volume by the divergence theorem; a negative one means inward winding, so flip it.
-  double six_volume = 0.0;
-  for (const auto& t : mesh.triangles) {
-    const Vec3 a = mesh.vertices[t[0]].cast<double>();
-    const Vec3 b = mesh.vertices[t[1]].cast<double>();
-    const Vec3 c = mesh.vertices[t[2]].cast<double>();
-    six_volume += a.dot(b.cross(c));
-  }
-  if (six_volume < 0.0) {
+  // A negative enclosed volume means inward winding: flip it.
+  if (mesh.volume() < 0.0) {
     for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
   }
   return mesh;
