@@ -121,13 +121,13 @@ TreeReport make_tree_report(const SphereTree& tree, double build_seconds, const 
 }
 
 std::string format_tree_report_json(const TreeReport& r) {
-  return fmt::format(
-      R"({{"mode":"{}","leaves":{},"levels":{},"nodes_per_level":[{}],"build_seconds":{:.3f},)"
-      R"("deviation_mm":{{"p50":{:.4f},"p95":{:.4f},"max":{:.4f},"max_poke_out":{:.4f},)"
-      R"("max_fall_short":{:.4f},"samples":{}}}}})",
-      r.mode == TreeMode::Octree ? "octree" : "tight", r.leaves, r.levels, fmt::join(r.nodes_per_level, ","),
-      r.build_seconds, r.deviation.p50, r.deviation.p95, r.deviation.max, r.deviation.max_poke_out,
-      r.deviation.max_fall_short, r.deviation.samples);
+  return fmt::format(R"({{"mode":"{}","leaves":{},"levels":{},"nodes_per_level":[{}],"build_seconds":{:.3f},)"
+                     R"("deviation_mm":{{"p50":{:.4f},"p95":{:.4f},"max":{:.4f},"max_poke_out":{:.4f},)"
+                     R"("max_fall_short":{:.4f},"samples":{}}}}})",
+                     r.mode == TreeMode::Octree ? "octree" : "tight", r.leaves, r.levels,
+                     fmt::join(r.nodes_per_level, ","), r.build_seconds, r.deviation.p50, r.deviation.p95,
+                     r.deviation.max, r.deviation.max_poke_out, r.deviation.max_fall_short,
+                     r.deviation.samples);
 }
 
 }  // namespace cariesim

@@ -52,7 +52,8 @@ SphereTree build_octree_tree(const LevelSet& shape, const TreeParams& params, co
     auto& children = levels[static_cast<std::size_t>(level) + 1];
     for (uint32_t p = 0; p < parents.size(); ++p) {
       for (int octant = 0; octant < 8; ++octant) {
-        const Vec3 offset((octant & 1) ? 0.25 : -0.25, (octant & 2) ? 0.25 : -0.25, (octant & 4) ? 0.25 : -0.25);
+        const Vec3 offset((octant & 1) ? 0.25 : -0.25, (octant & 2) ? 0.25 : -0.25,
+                          (octant & 4) ? 0.25 : -0.25);
         const Vec3 center = parents[p].center + 2.0 * child_edge * offset;
         const double d = probe.distance(center);
         const bool surface_cell = std::abs(d) <= child_half_diagonal + slack;

@@ -3,7 +3,6 @@
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
-
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -40,12 +39,13 @@ std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, ui
   for (std::size_t s = 0; s < count; ++s) {
     const double pick = unit(rng) * total;
     const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), pick);
-    const std::size_t i = std::min<std::size_t>(static_cast<std::size_t>(it - cumulative.begin()),
-                                                cumulative.size() - 1);
+    const std::size_t i =
+        std::min<std::size_t>(static_cast<std::size_t>(it - cumulative.begin()), cumulative.size() - 1);
     const auto& t = mesh.triangles[i];
     const double u = std::sqrt(unit(rng));
     const double v = unit(rng);
-    out.push_back((1.0 - u) * mesh.vertices[t[0]].cast<double>() + u * (1.0 - v) * mesh.vertices[t[1]].cast<double>() +
+    out.push_back((1.0 - u) * mesh.vertices[t[0]].cast<double>() +
+                  u * (1.0 - v) * mesh.vertices[t[1]].cast<double>() +
                   u * v * mesh.vertices[t[2]].cast<double>());
   }
   return out;
@@ -62,8 +62,8 @@ DistanceField::DistanceField(const LevelSet& shape, double needed_depth_mm, doub
   if (needed_depth_mm <= reliable_ && needed_outside_mm <= reliable_) return;
   const Eigen::AlignedBox3d box = shape.bounds();
   const Vec3 extent = box.sizes();
-  const double coarse_voxel = std::max({kCoarseFactor * voxel_, std::cbrt(extent.prod() / kMaxCoarseVoxels),
-                                        min_coarse_voxel_mm});
+  const double coarse_voxel =
+      std::max({kCoarseFactor * voxel_, std::cbrt(extent.prod() / kMaxCoarseVoxels), min_coarse_voxel_mm});
   const auto transform = openvdb::math::Transform::createLinearTransform(coarse_voxel);
 
   // Sample the fine field densely on the coarse voxels (parallel, into a dense block, then sparse).
@@ -73,7 +73,8 @@ DistanceField::DistanceField(const LevelSet& shape, double needed_depth_mm, doub
   {
     const Eigen::Vector3i lo = (box.min() / coarse_voxel).array().floor().cast<int>().matrix();
     const Eigen::Vector3i hi = (box.max() / coarse_voxel).array().ceil().cast<int>().matrix();
-    const openvdb::CoordBBox bbox(openvdb::Coord(lo.x(), lo.y(), lo.z()), openvdb::Coord(hi.x(), hi.y(), hi.z()));
+    const openvdb::CoordBBox bbox(openvdb::Coord(lo.x(), lo.y(), lo.z()),
+                                  openvdb::Coord(hi.x(), hi.y(), hi.z()));
     openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(bbox);
     const openvdb::Coord dim = bbox.dim();
     tbb::parallel_for(tbb::blocked_range<int>(0, dim.x()), [&](const tbb::blocked_range<int>& range) {

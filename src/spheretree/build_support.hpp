@@ -87,8 +87,8 @@ class PointIndex {
     /// Calls f(i) for every point i within `radius` of `center`.
     template <typename F>
     void for_each_within(const Vec3& center, double radius, F&& f) {
-      iterator_.worldSpaceSearchAndUpdate(openvdb::Vec3d(center.x(), center.y(), center.z()), radius, accessor_,
-                                          index_.array_, index_.grid_->transform());
+      iterator_.worldSpaceSearchAndUpdate(openvdb::Vec3d(center.x(), center.y(), center.z()), radius,
+                                          accessor_, index_.array_, index_.grid_->transform());
       for (; iterator_; ++iterator_) f(static_cast<std::size_t>(*iterator_));
     }
 

@@ -12,9 +12,8 @@
 // reaches past no surface sample by more than a fifth of the tolerance: that check is exact against
 // the samples, so the coarse deep part of D (beyond the narrow band) only guides the radius search.
 
-#include <tbb/parallel_for.h>
-
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -175,7 +174,8 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
     leaves.push_back(leaf);
   }
   if (capped) {
-    spdlog::warn("tight tree: the leaf cap ({}) was reached before the surface was covered", params.max_leaves);
+    spdlog::warn("tight tree: the leaf cap ({}) was reached before the surface was covered",
+                 params.max_leaves);
     report(progress, "tight: leaf cap reached", 0.8);
   }
   if (unplaced > 0) {
@@ -215,15 +215,15 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
       for (const LeafSphere& l : leaves) mark(l.center.cast<double>(), l.radius);
       std::vector<uint32_t> deepest(points.size());
       std::iota(deepest.begin(), deepest.end(), 0u);
-      std::stable_sort(deepest.begin(), deepest.end(), [&](uint32_t a, uint32_t b) { return depth[a] > depth[b]; });
+      std::stable_sort(deepest.begin(), deepest.end(),
+                       [&](uint32_t a, uint32_t b) { return depth[a] > depth[b]; });
       for (uint32_t i : deepest) {
         if (inside[i] || leaves.size() >= params.max_leaves) continue;
         inside[i] = 1;
         // Inscribed with a margin, checked against the surface samples (the deep distance is coarse).
         double r = depth[i] - margin;
-        query.for_each_within(points[i], r + margin, [&](std::size_t j) {
-          r = std::min(r, (raw[j] - points[i]).norm() - margin);
-        });
+        query.for_each_within(points[i], r + margin,
+                              [&](std::size_t j) { r = std::min(r, (raw[j] - points[i]).norm() - margin); });
         if (r < params.min_radius) continue;
         mark(points[i], r);
         LeafSphere leaf{};

@@ -14,6 +14,7 @@
 
 #include "cariesim/spheretree/cache.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -27,8 +28,6 @@
 #include <system_error>
 #include <type_traits>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "cariesim/spheretree/build.hpp"
 
@@ -201,7 +200,8 @@ TreeCache::TreeCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
 
 std::filesystem::path TreeCache::default_dir() {
   if (const char* env = std::getenv("CARIESIM_CACHE_DIR"); env && *env) return env;
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::filesystem::path(xdg) / "cariesim";
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return std::filesystem::path(xdg) / "cariesim";
   if (const char* home = std::getenv("HOME"); home && *home) {
     return std::filesystem::path(home) / ".cache" / "cariesim";
   }
@@ -247,7 +247,8 @@ void TreeCache::store(uint64_t key, const CachedPart& part) const {
   std::vector<StoredNode> nodes(part.tree.nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     const SphereNode& n = part.tree.nodes[i];
-    nodes[i] = {{n.center.x(), n.center.y(), n.center.z()}, n.radius, n.first, n.count, n.material, n.leaf, n.flags};
+    nodes[i] = {
+        {n.center.x(), n.center.y(), n.center.z()}, n.radius, n.first, n.count, n.material, n.leaf, n.flags};
   }
   out.put_array(nodes);
   out.put_array(part.tree.leaf_nodes);

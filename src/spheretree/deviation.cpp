@@ -1,8 +1,7 @@
 // Surface deviation of a sphere tree (DESIGN.md §3, issue 2 item 9) and its structural check.
 
-#include <tbb/parallel_for.h>
-
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -50,7 +49,8 @@ double distance_to_union(const SphereTree& tree, const Vec3f& x, std::vector<uin
       if (b < best) children[n++] = {b, node.first + static_cast<uint32_t>(k)};
     }
     for (int a = 1; a < n; ++a) {
-      for (int b = a; b > 0 && children[b - 1].first < children[b].first; --b) std::swap(children[b - 1], children[b]);
+      for (int b = a; b > 0 && children[b - 1].first < children[b].first; --b)
+        std::swap(children[b - 1], children[b]);
     }
     for (int k = 0; k < n; ++k) stack.push_back(children[k].second);
   }
@@ -60,8 +60,8 @@ double distance_to_union(const SphereTree& tree, const Vec3f& x, std::vector<uin
 // The q-quantile (0..1) of values (reorders them).
 double quantile(std::vector<double>& values, double q) {
   if (values.empty()) return 0.0;
-  const auto k = static_cast<std::size_t>(std::min<double>(q * static_cast<double>(values.size() - 1),
-                                                           static_cast<double>(values.size() - 1)));
+  const auto k = static_cast<std::size_t>(
+      std::min<double>(q * static_cast<double>(values.size() - 1), static_cast<double>(values.size() - 1)));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return values[k];
 }
@@ -130,7 +130,8 @@ std::string check_tree(const SphereTree& tree, double slack_mm) {
     return tree.leaf_nodes.empty() ? std::string() : "leaf table is not empty but the tree has no nodes";
   }
   if (tree.leaf_depth.size() != tree.leaf_nodes.size()) {
-    return fmt::format("leaf_depth has {} entries for {} leaves", tree.leaf_depth.size(), tree.leaf_nodes.size());
+    return fmt::format("leaf_depth has {} entries for {} leaves", tree.leaf_depth.size(),
+                       tree.leaf_nodes.size());
   }
   std::vector<uint8_t> seen(tree.nodes.size(), 0);
   std::vector<std::pair<uint32_t, int>> stack{{0u, 0}};
@@ -174,7 +175,8 @@ std::string check_tree(const SphereTree& tree, double slack_mm) {
   if (leaves != tree.leaf_nodes.size()) {
     return fmt::format("{} leaves in the tree but {} in the leaf table", leaves, tree.leaf_nodes.size());
   }
-  if (tree.levels != deepest + 1) return fmt::format("levels is {} but the deepest node is on level {}", tree.levels, deepest);
+  if (tree.levels != deepest + 1)
+    return fmt::format("levels is {} but the deepest node is on level {}", tree.levels, deepest);
   return {};
 }
 

@@ -19,7 +19,8 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 
-constexpr std::array<std::string_view, 5> kKindNames{"disk", "stripe", "polygon", "inverted-cone", "ellipsoid"};
+constexpr std::array<std::string_view, 5> kKindNames{"disk", "stripe", "polygon", "inverted-cone",
+                                                     "ellipsoid"};
 
 // Signed distance from p to a closed polygon (exact; negative inside, either winding).
 double polygon_distance(const std::vector<Vec2>& poly, const Vec2& p) {
@@ -178,10 +179,12 @@ void check_shape(const LesionShape& s) {
                 " must be a positive finite number of mm, got " + std::to_string(value));
   };
   if (!s.center.allFinite()) throw Error("lesion: center is not finite");
-  if (!s.normal.allFinite() || s.normal.norm() < 1e-9) throw Error("lesion: normal must be a non-zero vector");
+  if (!s.normal.allFinite() || s.normal.norm() < 1e-9)
+    throw Error("lesion: normal must be a non-zero vector");
   if (!s.tangent.allFinite()) throw Error("lesion: tangent is not finite");
   if (!(s.depth > 0.0) || !std::isfinite(s.depth)) bad("depth", s.depth);
-  if (s.kind != LesionShape::Kind::Polygon && (!(s.size > 0.0) || !std::isfinite(s.size))) bad("size", s.size);
+  if (s.kind != LesionShape::Kind::Polygon && (!(s.size > 0.0) || !std::isfinite(s.size)))
+    bad("size", s.size);
   if ((s.kind == LesionShape::Kind::Stripe || s.kind == LesionShape::Kind::Ellipsoid) &&
       (!(s.width > 0.0) || !std::isfinite(s.width))) {
     bad("width", s.width);
@@ -277,7 +280,8 @@ LevelSet LesionShape::to_level_set(double voxel_mm, double half_band_mm) const {
     throw Error("lesion level set: voxel size must be positive, got " + std::to_string(voxel_mm));
   }
   if (!(half_band_mm >= voxel_mm) || !std::isfinite(half_band_mm)) {
-    throw Error("lesion level set: half band must be at least one voxel, got " + std::to_string(half_band_mm));
+    throw Error("lesion level set: half band must be at least one voxel, got " +
+                std::to_string(half_band_mm));
   }
   ensure_openvdb_initialized();
 
@@ -308,7 +312,8 @@ LevelSet LesionShape::to_level_set(double voxel_mm, double half_band_mm) const {
           for (int j = by; j < by + kBlock; ++j) {
             for (int k = bz; k < bz + kBlock; ++k) {
               const double d = distance(Vec3(i, j, k) * voxel_mm);
-              if (std::abs(d) < half_band_mm) accessor.setValue(openvdb::Coord(i, j, k), static_cast<float>(d));
+              if (std::abs(d) < half_band_mm)
+                accessor.setValue(openvdb::Coord(i, j, k), static_cast<float>(d));
             }
           }
         }
@@ -323,7 +328,9 @@ LevelSet LesionShape::to_level_set(double voxel_mm, double half_band_mm) const {
   return out;
 }
 
-std::string_view lesion_kind_name(LesionShape::Kind kind) { return kKindNames[static_cast<std::size_t>(kind)]; }
+std::string_view lesion_kind_name(LesionShape::Kind kind) {
+  return kKindNames[static_cast<std::size_t>(kind)];
+}
 
 bool parse_lesion_kind(std::string_view name, LesionShape::Kind& out) {
   for (std::size_t i = 0; i < kKindNames.size(); ++i) {

@@ -104,8 +104,8 @@ LevelSet LevelSet::from_mesh(const TriangleMesh& mesh, double voxel_mm, double h
   auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*transform, points, triangles,
                                                                  static_cast<float>(half_band_mm / voxel_mm));
   if (grid->activeVoxelCount() == 0) {
-    throw Error("LevelSet::from_mesh: the mesh produced an empty level set (voxel " + std::to_string(voxel_mm) +
-                " mm is too coarse, or the mesh is degenerate)");
+    throw Error("LevelSet::from_mesh: the mesh produced an empty level set (voxel " +
+                std::to_string(voxel_mm) + " mm is too coarse, or the mesh is degenerate)");
   }
   return wrap(std::move(grid));
 }

@@ -332,7 +332,8 @@ TEST(TreeReport, FormatsOneLineOfJson) {
   EXPECT_NE(json.find("\"leaves\":" + std::to_string(tree.leaf_count()) + ","), std::string::npos) << json;
   EXPECT_NE(json.find("\"levels\":3,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"build_seconds\":1.500"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"deviation_mm\":{\"p50\":0.2500,\"p95\":0.5000,\"max\":0.7500"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"deviation_mm\":{\"p50\":0.2500,\"p95\":0.5000,\"max\":0.7500"), std::string::npos)
+      << json;
   EXPECT_NE(json.find("\"samples\":100000"), std::string::npos) << json;
 }
 

@@ -71,21 +71,21 @@ TEST(LesionShape, PolygonHelpersHaveTheRequestedSides) {
 
 TEST(LesionShape, DiskClosedForm) {
   LesionShape s;  // disk at the origin, normal +z, diameter 2, depth 1.5
-  EXPECT_NEAR(s.distance(Vec3(0, 0, -0.75)), -0.75, 1e-12);     // mid-depth on the axis: 0.75 to the bottom
-  EXPECT_NEAR(s.distance(Vec3(0.9, 0, -0.75)), -0.1, 1e-12);    // near the wall
-  EXPECT_NEAR(s.distance(Vec3(1.3, 0, -0.75)), 0.3, 1e-12);     // outside the wall
-  EXPECT_NEAR(s.distance(Vec3(0, 0, -2.0)), 0.5, 1e-12);        // below the flat bottom
-  EXPECT_NEAR(s.distance(Vec3(1.3, 0, -1.9)), 0.5, 1e-12);      // off the bottom rim (0.3, 0.4)
-  EXPECT_LT(s.distance(Vec3(0, 0, 1.4)), 0.0);                  // above the surface
+  EXPECT_NEAR(s.distance(Vec3(0, 0, -0.75)), -0.75, 1e-12);   // mid-depth on the axis: 0.75 to the bottom
+  EXPECT_NEAR(s.distance(Vec3(0.9, 0, -0.75)), -0.1, 1e-12);  // near the wall
+  EXPECT_NEAR(s.distance(Vec3(1.3, 0, -0.75)), 0.3, 1e-12);   // outside the wall
+  EXPECT_NEAR(s.distance(Vec3(0, 0, -2.0)), 0.5, 1e-12);      // below the flat bottom
+  EXPECT_NEAR(s.distance(Vec3(1.3, 0, -1.9)), 0.5, 1e-12);    // off the bottom rim (0.3, 0.4)
+  EXPECT_LT(s.distance(Vec3(0, 0, 1.4)), 0.0);                // above the surface
 }
 
 TEST(LesionShape, StripeClosedForm) {
   LesionShape s;
   s.kind = Kind::Stripe;
-  s.size = 4.0;   // length along x, rounded ends
+  s.size = 4.0;  // length along x, rounded ends
   s.width = 1.0;
   s.depth = 1.0;
-  EXPECT_NEAR(s.distance(Vec3(0, 0.0, -0.2)), -0.5, 1e-12);   // on the axis: half the width to the sides
+  EXPECT_NEAR(s.distance(Vec3(0, 0.0, -0.2)), -0.5, 1e-12);    // on the axis: half the width to the sides
   EXPECT_NEAR(s.distance(Vec3(1.0, 0.3, -0.5)), -0.2, 1e-12);  // 0.2 from the long side
   EXPECT_NEAR(s.distance(Vec3(2.2, 0.0, -0.5)), 0.2, 1e-12);   // 0.2 past the rounded end (x = 2)
   EXPECT_NEAR(s.distance(Vec3(1.5 + 0.6 * std::cos(0.7), 0.6 * std::sin(0.7), -0.5)), 0.1, 1e-12);

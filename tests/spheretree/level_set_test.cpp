@@ -122,7 +122,8 @@ TEST(LevelSet, CopiesAreIndependentAndMovesLeaveAnEmptySet) {
 TEST(LevelSet, ConstQueriesAreThreadSafe) {
   const LevelSet ball = LevelSet::from_mesh(make_icosphere(2.0, 4), kVoxel, kBand);
   std::vector<Vec3> points;
-  for (int i = 0; i < 2000; ++i) points.emplace_back(std::sin(i) * 2.1, std::cos(i * 0.7) * 2.0, std::sin(i * 1.3) * 1.9);
+  for (int i = 0; i < 2000; ++i)
+    points.emplace_back(std::sin(i) * 2.1, std::cos(i * 0.7) * 2.0, std::sin(i * 1.3) * 1.9);
   std::vector<double> serial;
   for (const Vec3& p : points) serial.push_back(ball.distance(p));
   std::vector<std::vector<double>> parallel(4);
@@ -148,11 +149,14 @@ TEST(LevelSet, BadInputIsRejectedWithAReason) {
   };
   EXPECT_NE(message([&] { (void)LevelSet::from_mesh(TriangleMesh{}, kVoxel, kBand); }).find("no triangles"),
             std::string::npos);
-  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(box, 0.0, kBand); }).find("voxel size"), std::string::npos);
-  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(box, kVoxel, 0.01); }).find("half band"), std::string::npos);
+  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(box, 0.0, kBand); }).find("voxel size"),
+            std::string::npos);
+  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(box, kVoxel, 0.01); }).find("half band"),
+            std::string::npos);
   TriangleMesh nan_mesh = box;
   nan_mesh.vertices[3].x() = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(nan_mesh, kVoxel, kBand); }).find("vertex 3"), std::string::npos);
+  EXPECT_NE(message([&] { (void)LevelSet::from_mesh(nan_mesh, kVoxel, kBand); }).find("vertex 3"),
+            std::string::npos);
   TriangleMesh bad_index = box;
   bad_index.triangles[5][1] = 99;
   EXPECT_NE(message([&] { (void)LevelSet::from_mesh(bad_index, kVoxel, kBand); }).find("triangle 5"),

@@ -42,7 +42,8 @@ TEST_P(ScanTree, TightModeMeetsTheFidelityTarget) {
   EXPECT_EQ(check_tree(tree), "");
   EXPECT_LE(tree.leaf_count(), 50000u);
   const Deviation dev = measure_deviation(tree, s->mesh, s->shape, 100000, 1);
-  std::printf("%s tight: %s\n", GetParam().c_str(), format_tree_report_json(make_tree_report(tree, 0.0, dev)).c_str());
+  std::printf("%s tight: %s\n", GetParam().c_str(),
+              format_tree_report_json(make_tree_report(tree, 0.0, dev)).c_str());
   EXPECT_LE(dev.p95, 0.02);
   EXPECT_LE(dev.max, 0.05);
   EXPECT_LE(dev.max_poke_out, 0.05);

@@ -15,8 +15,8 @@ namespace cariesim::testing {
 /// An icosphere of `radius` (mm) about `center`, `subdivisions` times refined, wound outward.
 inline TriangleMesh make_icosphere(double radius, int subdivisions, const Vec3& center = Vec3::Zero()) {
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3> v{{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                      {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Vec3> v{{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                      {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (auto& p : v) p.normalize();
   std::vector<std::array<uint32_t, 3>> f{{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
                                          {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
@@ -35,7 +35,8 @@ inline TriangleMesh make_icosphere(double radius, int subdivisions, const Vec3& 
     };
     std::vector<std::array<uint32_t, 3>> next;
     for (const auto& tri : f) {
-      const uint32_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]), ca = midpoint(tri[2], tri[0]);
+      const uint32_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]),
+                     ca = midpoint(tri[2], tri[0]);
       next.push_back({tri[0], ab, ca});
       next.push_back({tri[1], bc, ab});
       next.push_back({tri[2], ca, bc});
@@ -53,7 +54,8 @@ inline TriangleMesh make_icosphere(double radius, int subdivisions, const Vec3& 
 inline TriangleMesh make_box(const Vec3& lo, const Vec3& hi) {
   TriangleMesh mesh;
   for (int i = 0; i < 8; ++i) {
-    mesh.vertices.emplace_back(static_cast<float>((i & 1) ? hi.x() : lo.x()), static_cast<float>((i & 2) ? hi.y() : lo.y()),
+    mesh.vertices.emplace_back(static_cast<float>((i & 1) ? hi.x() : lo.x()),
+                               static_cast<float>((i & 2) ? hi.y() : lo.y()),
                                static_cast<float>((i & 4) ? hi.z() : lo.z()));
   }
   mesh.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},

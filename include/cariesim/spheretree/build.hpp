@@ -24,21 +24,21 @@ namespace cariesim {
 
 struct TreeParams {
   TreeMode mode = TreeMode::Tight;
-  int depth = 4;                 ///< octree: number of subdivision levels
-  double tolerance = 0.015;      ///< mm, tight: target surface deviation of the leaf union
-  double max_radius = 1.0;       ///< mm, tight: largest surface leaf
-  double min_radius = 0.02;      ///< mm, tight: smallest surface leaf
-  bool fill_interior = true;     ///< tight: add large filler spheres deep inside
+  int depth = 4;                   ///< octree: number of subdivision levels
+  double tolerance = 0.015;        ///< mm, tight: target surface deviation of the leaf union
+  double max_radius = 1.0;         ///< mm, tight: largest surface leaf
+  double min_radius = 0.02;        ///< mm, tight: smallest surface leaf
+  bool fill_interior = true;       ///< tight: add large filler spheres deep inside
   std::size_t max_leaves = 50000;  ///< tight: hard cap (the build reports when it was reached)
-  int branching = 4;             ///< children per inner node of the hierarchy
+  int branching = 4;               ///< children per inner node of the hierarchy
 };
 
 /// Level-set resolution for building a tree of a mesh: the voxel the mode's fidelity needs (tight:
 /// (10/3) * tolerance, 0.05 mm for 0.015 mm; octree: 1/8 of a leaf cell), coarsened when the band
 /// would exceed a memory budget (a 100 x 100 x 20 mm cube stays around 20 million band voxels).
 struct LevelSetResolution {
-  double voxel = 0.05;     ///< mm
-  double half_band = 0.25; ///< mm, each side of the surface
+  double voxel = 0.05;      ///< mm
+  double half_band = 0.25;  ///< mm, each side of the surface
 };
 /// Throws cariesim::Error for an empty mesh.
 LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams& params);
@@ -66,11 +66,11 @@ void assign_materials(SphereTree& tree,
 
 /// Distance between the union of leaves and a surface, both ways (DESIGN.md §3).
 struct Deviation {
-  double p50 = 0.0;  ///< mm
-  double p95 = 0.0;  ///< mm
-  double max = 0.0;  ///< mm
-  double max_poke_out = 0.0;   ///< mm, largest amount a leaf reaches beyond the surface
-  double max_fall_short = 0.0; ///< mm, largest gap between a surface point and the union
+  double p50 = 0.0;             ///< mm
+  double p95 = 0.0;             ///< mm
+  double max = 0.0;             ///< mm
+  double max_poke_out = 0.0;    ///< mm, largest amount a leaf reaches beyond the surface
+  double max_fall_short = 0.0;  ///< mm, largest gap between a surface point and the union
   std::size_t samples = 0;
 };
 /// Samples `samples` points uniformly on `surface` (seeded) and measures |distance to the union of

@@ -17,9 +17,9 @@ struct LesionShape {
   Vec3 center = Vec3::Zero();    ///< mm, point on the tooth surface
   Vec3 normal = Vec3::UnitZ();   ///< outward surface normal at center (unit)
   Vec3 tangent = Vec3::UnitX();  ///< in-plane orientation of the shape (projected on the plane)
-  double size = 2.0;   ///< mm: disk/cone diameter at the surface, stripe length, ellipsoid x axis
-  double width = 0.6;  ///< mm: stripe width, ellipsoid y axis
-  double depth = 1.5;  ///< mm below center along -normal
+  double size = 2.0;             ///< mm: disk/cone diameter at the surface, stripe length, ellipsoid x axis
+  double width = 0.6;            ///< mm: stripe width, ellipsoid y axis
+  double depth = 1.5;            ///< mm below center along -normal
   /// Polygon: vertices (mm) in the (tangent, normal x tangent) plane, counter-clockwise.
   std::vector<Eigen::Vector2d> polygon;
 
