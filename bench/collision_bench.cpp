@@ -5,7 +5,7 @@
 // gap/normal/point of each pair. Timed per query, including moving the tool to the new pose.
 //
 // Ours: `PlacedTool::place` + `collide` of the explorer's sphere tree against the molar's sphere tree
-// (leaf spheres inscribed under the scanned surface), into a ContactSet of capacity 1024.
+// (the tight tree: leaf spheres inscribed under the scanned surface), into a ContactSet of capacity 1024.
 //
 // FCL 0.7 (Debian libfcl-dev), the same tooth as FCL's native representation of a scan: a
 // BVHModel<OBBRSS> of the triangle mesh (the best BV type FCL offers for mesh collision). The tool is
@@ -27,8 +27,7 @@
 // sphere leaves (sphere-sphere tests). FCL's contact count is per triangle, ours per leaf sphere, so
 // the counts differ somewhat for the same contact region. FCL's CollisionResult is cleared and
 // reused (its vector keeps its capacity); ours writes into a preallocated ContactSet.
-// Until the tight tree builder lands, the molar's leaves are spheres of 0.25 mm tangent under every
-// scan vertex (same leaf size and count range, not its surface accuracy). The explorer is
+// The molar's tree is the tight tree (build_sphere_tree, default parameters). The explorer is
 // make_explorer_spheres() with its defaults (173 spheres, tip radius 0.05 mm).
 //
 // Scenarios: the tip resting on the occlusal surface with the shank clear (sliding); the tip down in
@@ -59,7 +58,7 @@
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/spheretree/build.hpp"
-#include "cariesim/spheretree/hierarchy.hpp"
+#include "cariesim/spheretree/level_set.hpp"
 
 namespace {
 
@@ -68,17 +67,16 @@ using cariesim::Vec3f;
 
 constexpr double kMargin = 0.1;          // mm, per tool leaf
 constexpr std::size_t kCapacity = 1024;  // contacts per query, both sides
-constexpr double kLeafRadius = 0.25;     // mm, leaf spheres tangent under the scan's vertices
 constexpr double kRestingGap = -0.005;   // mm, the tip's gap when it rests on the surface
 constexpr int kPathLength = 1024;        // poses along each scenario's small path
 
 const std::filesystem::path kDataDir = CARIESIM_SHARED_DATA_DIR "/open-full-jaw/patient26";
 
-// The scanned molar: vertices (mm), triangles, outward vertex normals.
+// The scanned molar: the mesh, its vertices (mm) and triangles for FCL.
 struct Tooth {
+  cariesim::TriangleMesh mesh;
   std::vector<Vec3> vertices;
   std::vector<std::array<int, 3>> triangles;
-  std::vector<Vec3> normals;
   Vec3 axis;    // unit, occlusal direction (tooth long axis from teeth_axes_mandible.json)
   Vec3 centre;  // mm, the tooth's centre from the same file
 };
@@ -87,19 +85,11 @@ struct Tooth {
 // file (read with yaml-cpp: JSON is YAML).
 Tooth load_tooth() {
   Tooth tooth;
-  const cariesim::TriangleMesh mesh = cariesim::load_mesh(kDataDir / "tooth_30.stl");
-  for (const Vec3f& v : mesh.vertices) tooth.vertices.push_back(v.cast<double>());
-  for (const auto& t : mesh.triangles) {
+  tooth.mesh = cariesim::load_mesh(kDataDir / "tooth_30.stl");
+  for (const Vec3f& v : tooth.mesh.vertices) tooth.vertices.push_back(v.cast<double>());
+  for (const auto& t : tooth.mesh.triangles) {
     tooth.triangles.push_back({static_cast<int>(t[0]), static_cast<int>(t[1]), static_cast<int>(t[2])});
   }
-  // Area-weighted vertex normals (outward: load_mesh orients the triangles).
-  tooth.normals.assign(tooth.vertices.size(), Vec3::Zero());
-  for (const auto& t : tooth.triangles) {
-    const Vec3& a = tooth.vertices[t[0]];
-    const Vec3 n = (tooth.vertices[t[1]] - a).cross(tooth.vertices[t[2]] - a);
-    for (int k : t) tooth.normals[k] += n;
-  }
-  for (Vec3& n : tooth.normals) n.normalize();
   const YAML::Node axes = YAML::LoadFile((kDataDir / "teeth_axes_mandible.json").string())["30"];
   Vec3 c;
   Vec3 z;
@@ -112,19 +102,13 @@ Tooth load_tooth() {
   return tooth;
 }
 
-// Leaf spheres of radius kLeafRadius tangent to the surface under every vertex (inscribed), built
-// into a 4-ary tree: a stand-in for the tight builder with the same leaf size and count range.
+// The molar's tight sphere tree (default TreeParams: inscribed leaves within 0.015 mm of the
+// surface, 4-ary hierarchy), as the simulator builds it.
 cariesim::SphereTree tooth_tree(const Tooth& tooth) {
-  std::vector<cariesim::LeafSphere> leaves;
-  leaves.reserve(tooth.vertices.size());
-  for (std::size_t i = 0; i < tooth.vertices.size(); ++i) {
-    cariesim::LeafSphere l{};
-    l.center = (tooth.vertices[i] - kLeafRadius * tooth.normals[i]).cast<float>();
-    l.radius = static_cast<float>(kLeafRadius);
-    l.flags = cariesim::kLeafOnExposedSurface;
-    leaves.push_back(l);
-  }
-  return cariesim::build_hierarchy(leaves, 4);
+  const cariesim::TreeParams params;
+  const cariesim::LevelSetResolution res = cariesim::choose_resolution(tooth.mesh, params);
+  return cariesim::build_sphere_tree(cariesim::LevelSet::from_mesh(tooth.mesh, res.voxel, res.half_band),
+                                     params);
 }
 
 // Tool orientation: +z (toward the handle) along the tooth axis, tilted 20 degrees about an axis
