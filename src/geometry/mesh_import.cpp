@@ -7,7 +7,6 @@
 #include <cctype>
 #include <cstring>
 #include <fstream>
-#include <optional>
 #include <sstream>
 #include <string_view>
 

@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cstring>
 #include <random>
@@ -437,6 +438,31 @@ TEST_P(RealScan, LoadsWatertightWithPlausibleSize) {
   EXPECT_LT(size.maxCoeff(), 25.0);
   EXPECT_GT(mesh.volume(), 500.0);
   EXPECT_LT(mesh.volume(), 1500.0);
+
+  // In the tooth's own frame (axes shipped with the scans: centre c and the points c + x, c + y,
+  // c + z), the crown (the top 7.5 mm) is 10-11 mm mesio-distally and bucco-lingually.
+  const std::string tooth = std::string(GetParam()).substr(6, 2);
+  const YAML::Node axes = YAML::LoadFile((file.parent_path() / "teeth_axes_mandible.json").string())[tooth];
+  auto point = [&](const char* key) {
+    return Vec3(axes[key][0].as<double>(), axes[key][1].as<double>(), axes[key][2].as<double>());
+  };
+  const Vec3 c = point("c");
+  Mat3 frame;
+  frame.row(0) = (point("x") - c).normalized();
+  frame.row(1) = (point("y") - c).normalized();
+  frame.row(2) = (point("z") - c).normalized();
+  double top = -1e9;
+  for (const auto& v : mesh.vertices) top = std::max(top, (frame * (v.cast<double>() - c)).z());
+  Eigen::AlignedBox3d crown;
+  for (const auto& v : mesh.vertices) {
+    const Vec3 q = frame * (v.cast<double>() - c);
+    if (q.z() > top - 7.5) crown.extend(q);
+  }
+  std::cout << GetParam() << ": crown " << crown.sizes().head<2>().transpose() << " mm in the tooth frame\n";
+  EXPECT_GT(crown.sizes().x(), 9.5);
+  EXPECT_LT(crown.sizes().x(), 12.0);
+  EXPECT_GT(crown.sizes().y(), 9.5);
+  EXPECT_LT(crown.sizes().y(), 12.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Patient26, RealScan, ::testing::Values("tooth_19.stl", "tooth_30.stl"));

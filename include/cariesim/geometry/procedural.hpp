@@ -62,6 +62,8 @@ struct GingivaParams {
   double height = 4.0;      ///< mm, thickness below the margin
   double resolution = 0.5;  ///< mm
 };
+/// A rounded-rectangle cross-section (width x height) swept along the path, hanging below it, with
+/// round ends; a single point gives a round pad. Throws cariesim::Error on an empty or non-finite path.
 TriangleMesh make_gingiva_band(const GingivaParams& params);
 
 /// A tongue: a flattened, rounded body (mm) centred on the origin, long axis along x.
@@ -71,6 +73,7 @@ struct TongueParams {
   double height = 15.0;     ///< mm
   double resolution = 1.0;  ///< mm
 };
+/// A superellipsoid narrowing toward its tip at +x. Throws cariesim::Error on non-positive sizes.
 TriangleMesh make_tongue(const TongueParams& params = {});
 
 /// The dental explorer, in the tool frame: origin at the centre of the tip sphere, +z along the tip
@@ -94,11 +97,15 @@ struct ToolSphere {
   uint16_t segment;  ///< 0 tip segment, 1 working end, 2 shank, 3 handle
 };
 
-/// The explorer as a chain of spheres along its centre line, dense at the tip (consecutive spheres
-/// overlap so that the chain has no gap deeper than `max_gap` mm along its surface).
+/// The explorer as a chain of spheres along its centre line, ordered from the tip (sphere 0: centre at
+/// the origin, radius tip_radius) to the handle, dense at the tip. Consecutive spheres overlap so that
+/// their union dips at most `max_gap` mm below the ideal tube on the tip segment and working end,
+/// 0.05 mm on the shank and 0.5 mm on the handle (173 spheres with the defaults; docs/tool-frame.md).
+/// Throws cariesim::Error on invalid parameters.
 std::vector<ToolSphere> make_explorer_spheres(const ExplorerParams& params = {}, double max_gap = 0.01);
 
-/// A display mesh of the explorer (tube along the centre line), tool frame.
+/// A display mesh of the explorer: a closed tube along the same centre line with the same radius
+/// profile, a hemisphere at the tip and a rounded handle end; tool frame.
 TriangleMesh make_explorer_mesh(const ExplorerParams& params = {});
 
 }  // namespace cariesim
