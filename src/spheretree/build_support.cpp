@@ -51,6 +51,26 @@ std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, ui
   return out;
 }
 
+// One pass over the triangles: each gets its expected number of points, rounded at random.
+std::vector<Vec3> sample_surface_stratified(const TriangleMesh& mesh, double density, uint64_t seed) {
+  std::vector<Vec3> out;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const auto& t : mesh.triangles) {
+    const Vec3 a = mesh.vertices[t[0]].cast<double>();
+    const Vec3 b = mesh.vertices[t[1]].cast<double>();
+    const Vec3 c = mesh.vertices[t[2]].cast<double>();
+    const double expected = 0.5 * (b - a).cross(c - a).norm() * density;
+    const auto n = static_cast<int>(std::floor(expected + unit(rng)));
+    for (int k = 0; k < n; ++k) {
+      const double u = std::sqrt(unit(rng));
+      const double v = unit(rng);
+      out.push_back((1.0 - u) * a + u * (1.0 - v) * b + u * v * c);
+    }
+  }
+  return out;
+}
+
 // The coarse fallback: the fine field sampled on coarse voxels over the whole box (exact near the
 // surface, clamped deeper), meshed (volumeToMesh), and that light mesh turned back into a level set
 // whose bands reach the needed distances (meshToVolume computes exact distances to the mesh).

@@ -24,10 +24,15 @@ SphereTree build_octree_tree(const LevelSet& shape, const TreeParams& params, co
 /// `count` points distributed uniformly by area over the mesh (seeded, deterministic).
 std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, uint64_t seed);
 
+/// About `density` points per mm^2, stratified by triangle (each gets floor(area * density + u),
+/// u uniform in [0, 1)), so the points come out grouped triangle by triangle (seeded, deterministic).
+std::vector<Vec3> sample_surface_stratified(const TriangleMesh& mesh, double density, uint64_t seed);
+
 /// Signed distance of a level set's zero set, negative inside. Within the narrow band it is the level
 /// set's trilinear value; where that saturates it falls back on a coarser level set of the same
-/// surface whose interior is filled completely (OpenVDB levelSetRebuild), so deep points still get a
-/// distance instead of the band width.
+/// surface with wide bands (OpenVDB volumeToMesh + meshToVolume), so deep points still get a
+/// distance instead of the band width. The fallback is good to about 0.15 coarse voxels (0.03 mm
+/// for a tooth at 0.05 mm voxels): callers that need more check against surface samples.
 class DistanceField {
  public:
   /// `needed_depth_mm` / `needed_outside_mm`: the largest distances inside / outside the caller must

@@ -91,8 +91,7 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
   const double area = surface.area();
   if (!(area > 0.0)) return {};
   const double spacing = std::max(kSpacingPerTolerance * tol, std::sqrt(area / kMaxSamples));
-  const auto sample_count = static_cast<std::size_t>(std::ceil(area / (spacing * spacing)));
-  const std::vector<Vec3> raw = sample_surface(surface, sample_count, 1);
+  const std::vector<Vec3> raw = sample_surface_stratified(surface, 1.0 / (spacing * spacing), 1);
   const Eigen::AlignedBox3d box = surface.bounds();
 
   // The distance field must resolve depths down to the largest sphere.
@@ -118,10 +117,10 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
   std::stable_sort(by_reach.begin(), by_reach.end(),
                    [&](uint32_t a, uint32_t b) { return scouts[a].reach > scouts[b].reach; });
 
-  // Greedy cover: the scouts largest sphere first, then every sample still uncovered (in sample
-  // order, which is random over the surface). Deterministic: ties keep the sample order.
+  // Greedy cover: the scouts largest sphere first, then every sample still uncovered, in sample
+  // order (triangle by triangle). Deterministic: ties keep the sample order.
   report(progress, "tight: cover", 0.3);
-  const PointIndex index(raw, std::max(4.0 * spacing, 0.25 * params.max_radius));
+  const PointIndex index(raw, 4.0 * spacing);
   PointIndex::Query query(index);
   DistanceField::Probe probe(field);
   std::vector<uint8_t> covered(raw.size(), 0);
