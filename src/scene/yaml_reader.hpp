@@ -1,0 +1,96 @@
+#pragma once
+// Strict, located reading of yaml-cpp nodes for the scene parser: every accessor checks the type and
+// range of what it reads and throws cariesim::Error "file:line:column: field.path: message".
+
+#include <yaml-cpp/yaml.h>
+
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/common/math.hpp"
+
+namespace cariesim::scene_detail {
+
+/// Formats and throws errors located at a node.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  /// "file:line:column" of a node (1-based; 1:1 when yaml-cpp has no position).
+  [[nodiscard]] std::string where(const YAML::Node& node) const;
+  /// "file:line:column" of a mark.
+  [[nodiscard]] std::string where(const YAML::Mark& mark) const;
+  /// Throws "file:line:column: path: message" located at `node`.
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& path, const std::string& message) const;
+
+  /// A finite number (plain scalar).
+  [[nodiscard]] double number(const YAML::Node& node, const std::string& path) const;
+  /// A number in [lo, hi]; `unit` is named in the message.
+  [[nodiscard]] double number_in(const YAML::Node& node, const std::string& path, double lo, double hi,
+                                 std::string_view unit) const;
+  /// A number > 0 and <= hi.
+  [[nodiscard]] double positive(const YAML::Node& node, const std::string& path, double hi,
+                                std::string_view unit) const;
+  /// An integer in [lo, hi].
+  [[nodiscard]] int64_t integer_in(const YAML::Node& node, const std::string& path, int64_t lo,
+                                   int64_t hi) const;
+  /// true/false.
+  [[nodiscard]] bool boolean(const YAML::Node& node, const std::string& path) const;
+  /// Any scalar as text.
+  [[nodiscard]] std::string text(const YAML::Node& node, const std::string& path) const;
+  /// One of `names` (returns its index).
+  [[nodiscard]] std::size_t choice(const YAML::Node& node, const std::string& path, std::string_view what,
+                                   std::initializer_list<std::string_view> names) const;
+  /// A sequence of 3 finite numbers.
+  [[nodiscard]] Vec3 vec3(const YAML::Node& node, const std::string& path) const;
+  /// A sequence of 3 finite numbers with a non-zero length, normalized.
+  [[nodiscard]] Vec3 direction(const YAML::Node& node, const std::string& path) const;
+  /// A sequence of 2 finite numbers.
+  [[nodiscard]] Eigen::Vector2d vec2(const YAML::Node& node, const std::string& path) const;
+  /// Checks that `node` is a sequence (a missing node is an empty sequence).
+  void require_sequence(const YAML::Node& node, const std::string& path) const;
+
+  [[nodiscard]] const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+/// The keys of one mapping, checked against the allowed set: a non-mapping, a non-scalar key, a
+/// duplicate or an unknown key (with a "did you mean" hint) throws at construction.
+class Fields {
+ public:
+  Fields(const Reader& reader, const YAML::Node& node, std::string path,
+         std::initializer_list<std::string_view> allowed);
+
+  /// The value of `key`, or an undefined node when absent.
+  [[nodiscard]] YAML::Node get(std::string_view key) const;
+  /// The value of `key`; throws "path.key: missing required field" when absent.
+  [[nodiscard]] YAML::Node require(std::string_view key) const;
+  [[nodiscard]] bool has(std::string_view key) const;
+  /// "path.key" (or "key" at the top level).
+  [[nodiscard]] std::string sub(std::string_view key) const;
+  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] const YAML::Node& node() const { return node_; }
+
+  /// Optional typed readers: leave `out` unchanged when the key is absent.
+  void number(std::string_view key, double& out) const;
+  void positive(std::string_view key, double& out, double hi, std::string_view unit) const;
+  void number_in(std::string_view key, double& out, double lo, double hi, std::string_view unit) const;
+
+ private:
+  const Reader& reader_;
+  YAML::Node node_;
+  std::string path_;
+  std::vector<std::pair<std::string, YAML::Node>> entries_;
+};
+
+/// "items[3]".
+std::string indexed(const std::string& path, std::size_t index);
+
+}  // namespace cariesim::scene_detail
