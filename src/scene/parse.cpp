@@ -362,8 +362,10 @@ void read_lesion_material(const Reader& r, const YAML::Node& node, const std::st
   const Fields f(r, node, path,
                  {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "f_p_star", "f_e_star", "k_theta"});
   Material& m = l.material;
-  if (const auto n = f.get("stiffness"); n.IsDefined()) m.stiffness = read_stiffness(r, n, f.sub("stiffness"));
+  // The sliding contact stiffness follows k_e unless it is given.
   f.positive("k_e", m.k_e, kMaxStiffness, "N/mm");
+  m.stiffness = m.k_e;
+  if (const auto n = f.get("stiffness"); n.IsDefined()) m.stiffness = read_stiffness(r, n, f.sub("stiffness"));
   f.number_in("mu_s", m.mu_s, 0.0, kMaxFriction, "");
   f.number_in("mu_d", m.mu_d, 0.0, kMaxFriction, "");
   if (const auto n = f.get("anisotropic"); n.IsDefined()) {
@@ -424,6 +426,7 @@ LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::strin
   // Material: the severity preset (or the caries defaults), then the overrides.
   l.material = Material{};
   l.material.tissue = Tissue::Caries;
+  l.material.stiffness = l.material.k_e;
   if (const auto n = f.get("severity"); n.IsDefined()) {
     const std::size_t s = r.choice(n, f.sub("severity"), "severity", {"mild", "severe"});
     l.severity = s == 0 ? "mild" : "severe";
@@ -598,6 +601,23 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
     // A structural surprise inside yaml-cpp (e.g. a bad subscript): still located.
     throw Error(fmt::format("{}: {}", r.where(e.mark), e.msg));
   }
+  return scene;
+}
+
+SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(mesh, ec)) throw Error(fmt::format("{}: no such mesh file", mesh.string()));
+  SceneDesc scene;
+  scene.name = mesh.stem().string();
+  scene.origin = mesh.string();
+  scene.source_hash = BuildKey().add(mesh.string()).value();
+  ObjectDesc object;
+  object.name = mesh.stem().string();
+  object.where = SourceLoc{mesh.string(), 0, 0};
+  object.shape.kind = ShapeDesc::Kind::Mesh;
+  object.shape.file = mesh;
+  object.tree = tree;
+  scene.objects.push_back(std::move(object));
   return scene;
 }
 

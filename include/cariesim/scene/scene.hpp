@@ -28,16 +28,43 @@ std::vector<std::string> builtin_scene_names();
 /// The YAML text of a built-in scene; empty when there is none of that name.
 std::string_view builtin_scene_yaml(std::string_view name);
 
+/// A one-object scene around a mesh file (`cariesim tree MESH`): identity pose, rigid generic
+/// tissue, no lesions. Throws cariesim::Error when the file does not exist.
+SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree = {});
+
 struct BuildOptions {
   bool use_cache = true;                 ///< read and write the tree cache
+  std::filesystem::path cache_dir;       ///< empty: TreeCache::default_dir()
   std::optional<TreeMode> mode;          ///< overrides every object's tree mode
   std::optional<int> octree_depth;       ///< overrides the octree depth
   std::optional<double> tolerance;       ///< mm, overrides the tight tolerance
+  bool measure_deviation = false;        ///< measure every part's surface deviation (slow)
+  std::size_t deviation_samples = 100000;  ///< surface samples per part when measuring
   ProgressFn progress;                   ///< long builds report here
+};
+
+/// What building one collision part took (`cariesim tree`, benchmarks).
+struct PartReport {
+  std::string name;                      ///< e.g. "tooth46/healthy", "tooth46/lesion1"
+  int object = -1;                       ///< index into Model::objects
+  std::size_t leaves = 0;
+  int levels = 0;                        ///< tree levels (a lone root has 1)
+  std::vector<std::size_t> nodes_per_level;  ///< level 0 = root
+  double build_seconds = 0.0;            ///< s, level sets + tree + display mesh, or the cache load
+  bool cache_hit = false;
+  std::optional<Deviation> deviation;    ///< mm, when BuildOptions::measure_deviation
+};
+
+/// What building a whole model took.
+struct BuildReport {
+  std::vector<PartReport> parts;         ///< one per Model::objects entry, same order
+  double total_seconds = 0.0;            ///< s, the whole build_model call
 };
 
 /// Builds the engine's Model: meshes or procedural shapes, level sets, CSG with the lesions
 /// (healthy = tooth - lesion, caries = tooth ∩ lesion), sphere trees (cached), materials, the tool.
-Model build_model(const SceneDesc& scene, const BuildOptions& options = {});
+/// Throws cariesim::Error naming the scene entry (file:line:column) when a part cannot be built, a
+/// lesion misses its tooth, or the tool's home pose collides. `report`, when given, is filled.
+Model build_model(const SceneDesc& scene, const BuildOptions& options = {}, BuildReport* report = nullptr);
 
 }  // namespace cariesim

@@ -1,0 +1,103 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <exception>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/scene/scene.hpp"
+
+namespace cariesim {
+namespace {
+
+// Splits text into lines (keeping the newline).
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const std::size_t end = text.find('\n', start);
+    const std::size_t stop = end == std::string::npos ? text.size() : end + 1;
+    lines.push_back(text.substr(start, stop - start));
+    start = stop;
+  }
+  return lines;
+}
+
+// One random edit: delete, duplicate or replace a character or a line, or swap two lines.
+std::string mutate(const std::string& text, std::mt19937_64& rng) {
+  static const std::string kAlphabet = " \n\t:-[]{},#&*!|>'\"%@`0123456789.eE+-abcxyz_";
+  std::string out = text;
+  if (out.empty()) return "a";
+  std::uniform_int_distribution<std::size_t> pick(0, out.size() - 1);
+  std::uniform_int_distribution<std::size_t> letter(0, kAlphabet.size() - 1);
+  switch (std::uniform_int_distribution<int>(0, 6)(rng)) {
+    case 0:
+      out.erase(pick(rng), 1);
+      break;
+    case 1: {
+      const std::size_t at = pick(rng);
+      out.insert(at, 1, out[at]);
+      break;
+    }
+    case 2:
+      out[pick(rng)] = kAlphabet[letter(rng)];
+      break;
+    case 3:
+      out.insert(pick(rng), 1, kAlphabet[letter(rng)]);
+      break;
+    default: {
+      std::vector<std::string> lines = lines_of(out);
+      std::uniform_int_distribution<std::size_t> line(0, lines.size() - 1);
+      const std::size_t a = line(rng);
+      const std::size_t b = line(rng);
+      const int op = std::uniform_int_distribution<int>(0, 2)(rng);
+      if (op == 0) {
+        lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(a));
+      } else if (op == 1) {
+        lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(a), lines[b]);
+      } else {
+        std::swap(lines[a], lines[b]);
+      }
+      out.clear();
+      for (const auto& l : lines) out += l;
+      break;
+    }
+  }
+  return out;
+}
+
+// Random edits of the built-in scenes must parse or throw cariesim::Error: never crash, hang or throw
+// anything else. Seeded, so a failure reproduces; bounded to a few seconds.
+TEST(SceneParserFuzz, MutatedBuiltInsParseOrThrowError) {
+  std::mt19937_64 rng(20160401);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(4);
+  std::size_t parsed = 0;
+  std::size_t rejected = 0;
+  for (int round = 0; round < 4000 && std::chrono::steady_clock::now() < deadline; ++round) {
+    for (const auto& name : builtin_scene_names()) {
+      std::string text(builtin_scene_yaml(name));
+      const int edits = std::uniform_int_distribution<int>(1, 4)(rng);
+      for (int e = 0; e < edits; ++e) text = mutate(text, rng);
+      try {
+        (void)parse_scene(text, "fuzz.yaml");
+        ++parsed;
+      } catch (const Error& e) {
+        // Every message is located.
+        ASSERT_EQ(std::string(e.what()).rfind("fuzz.yaml:", 0), 0u) << e.what();
+        ++rejected;
+      } catch (const std::exception& e) {
+        FAIL() << "round " << round << " (" << name << "): non-Error exception: " << e.what() << "\n" << text;
+      } catch (...) {
+        FAIL() << "round " << round << " (" << name << "): unknown exception\n" << text;
+      }
+    }
+  }
+  // Both outcomes occur: the mutations neither always break nor never break the scenes.
+  EXPECT_GT(parsed, 0u);
+  EXPECT_GT(rejected, 0u);
+}
+
+}  // namespace
+}  // namespace cariesim
