@@ -180,7 +180,7 @@ TreeDesc read_tree(const Reader& r, const YAML::Node& node, const std::string& p
   f.positive("tolerance", t.params.tolerance, 10.0, "mm");
   f.positive("max_radius", t.params.max_radius, 100.0, "mm");
   f.positive("min_radius", t.params.min_radius, 100.0, "mm");
-  f.number_in("voxel", t.voxel, kMinVoxel, 10.0, "mm");
+  if (const auto n = f.get("voxel"); n.IsDefined()) t.voxel = r.number_in(n, f.sub("voxel"), kMinVoxel, 10.0, "mm");
   if (const auto n = f.get("max_leaves"); n.IsDefined()) {
     t.params.max_leaves = static_cast<std::size_t>(r.integer_in(n, f.sub("max_leaves"), 1, 2000000));
   }

@@ -45,6 +45,7 @@ TEST(ParseScene, MinimalSceneHasDefaults) {
   EXPECT_EQ(o.tissue, Tissue::Generic);
   EXPECT_TRUE(std::isinf(o.material.stiffness));
   EXPECT_EQ(o.tree.params.mode, TreeMode::Tight);
+  EXPECT_FALSE(o.tree.voxel.has_value());
   EXPECT_TRUE(s.lesions.empty());
   EXPECT_DOUBLE_EQ(s.gains.k_trans, s.limits.max_stiffness);
   EXPECT_EQ(o.where.line, 2);
@@ -110,7 +111,8 @@ servo_rate: 2000
   EXPECT_EQ(tooth.tree.params.depth, 5);
   EXPECT_EQ(tooth.tree.params.branching, 8);
   EXPECT_FALSE(tooth.tree.params.fill_interior);
-  EXPECT_DOUBLE_EQ(tooth.tree.voxel, 0.04);
+  ASSERT_TRUE(tooth.tree.voxel.has_value());
+  EXPECT_DOUBLE_EQ(*tooth.tree.voxel, 0.04);
 
   // Soft tissue defaults: kind soft, finite stiffness.
   EXPECT_EQ(s.objects[1].kind, ObjectKind::Soft);

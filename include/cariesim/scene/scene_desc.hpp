@@ -55,8 +55,9 @@ struct ObjectMaterialDesc {
 
 /// Sphere-tree settings of one object (TreeParams plus the level-set resolution).
 struct TreeDesc {
-  TreeParams params;      ///< mode, depth, tolerance, radii, leaf cap
-  double voxel = 0.05;    ///< mm, voxel size of the object's level set (and its lesions')
+  TreeParams params;             ///< mode, depth, tolerance, radii, leaf cap
+  std::optional<double> voxel;   ///< mm, level-set voxel of the object and its lesions; unset: chosen
+                                 ///< from the tolerance (or octree depth) and the object's size
 };
 
 /// One scene object: a tooth, a block, gingiva, the tongue.

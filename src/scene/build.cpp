@@ -1,0 +1,427 @@
+// build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural shape in the world,
+// lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions, caries_i = object ∩
+// lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and materials. Then the tool,
+// gains, limits, and a check that the model is usable.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <optional>
+
+#include "cariesim/collision/collide.hpp"
+#include "cariesim/common/error.hpp"
+#include "cariesim/geometry/mesh.hpp"
+#include "cariesim/geometry/procedural.hpp"
+#include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/build.hpp"
+#include "cariesim/spheretree/cache.hpp"
+#include "cariesim/spheretree/level_set.hpp"
+
+namespace cariesim {
+namespace {
+
+// Bump when anything in how a part is built changes (invalidates cached parts).
+constexpr std::string_view kPartFormat = "cariesim-scene-part-v1";
+// Level-set half band, in voxels (as spheretree's choose_resolution).
+constexpr double kBandVoxels = 5.0;
+// Height of the default tool home above the scene's highest point (mm).
+constexpr double kHomeClearance = 10.0;
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// "file:line:column: objects 'name'" for messages about a scene entry.
+std::string object_context(const ObjectDesc& o) { return fmt::format("{}: object '{}'", o.where.str(), o.name); }
+std::string lesion_context(const LesionDesc& l) { return fmt::format("{}: lesion '{}'", l.where.str(), l.name); }
+
+// The whole content of a file (mesh bytes for the cache key).
+std::string file_bytes(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// An object's surface in its own frame: the mesh file or the procedural generator.
+TriangleMesh object_mesh(const ObjectDesc& o) {
+  try {
+    switch (o.shape.kind) {
+      case ShapeDesc::Kind::Mesh: {
+        MeshLoadOptions options;
+        options.scale = o.shape.scale;
+        return load_mesh(o.shape.file, nullptr, options);
+      }
+      case ShapeDesc::Kind::Cuboid:
+        return make_cuboid(o.shape.size);
+      case ShapeDesc::Kind::Molar:
+        return make_molar(o.shape.molar);
+      case ShapeDesc::Kind::Premolar:
+        return make_premolar(o.shape.premolar);
+      case ShapeDesc::Kind::Gingiva:
+        return make_gingiva_band(o.shape.gingiva);
+      case ShapeDesc::Kind::Tongue:
+        return make_tongue(o.shape.tongue);
+    }
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", object_context(o), e.what()));
+  }
+  throw Error(fmt::format("{}: unknown shape", object_context(o)));
+}
+
+// Adds what determines an object's geometry to a key: mesh bytes or generator parameters, and pose.
+void add_geometry(BuildKey& key, const ObjectDesc& o) {
+  const ShapeDesc& s = o.shape;
+  key.add(static_cast<int64_t>(s.kind));
+  switch (s.kind) {
+    case ShapeDesc::Kind::Mesh:
+      key.add(file_bytes(s.file)).add(s.scale);
+      break;
+    case ShapeDesc::Kind::Cuboid:
+      key.add(s.size.x()).add(s.size.y()).add(s.size.z());
+      break;
+    case ShapeDesc::Kind::Molar:
+      key.add(s.molar.mesiodistal).add(s.molar.buccolingual).add(s.molar.crown_height).add(s.molar.root_length);
+      key.add(int64_t{s.molar.cusps}).add(int64_t{s.molar.roots}).add(s.molar.resolution);
+      break;
+    case ShapeDesc::Kind::Premolar:
+      key.add(s.premolar.mesiodistal).add(s.premolar.buccolingual).add(s.premolar.crown_height);
+      key.add(s.premolar.root_length).add(s.premolar.resolution);
+      break;
+    case ShapeDesc::Kind::Gingiva:
+      for (const Vec3& p : s.gingiva.path) key.add(p.x()).add(p.y()).add(p.z());
+      key.add(s.gingiva.width).add(s.gingiva.height).add(s.gingiva.resolution);
+      break;
+    case ShapeDesc::Kind::Tongue:
+      key.add(s.tongue.length).add(s.tongue.width).add(s.tongue.height).add(s.tongue.resolution);
+      break;
+  }
+  key.add(o.pose.p.x()).add(o.pose.p.y()).add(o.pose.p.z());
+  key.add(o.pose.q.w()).add(o.pose.q.x()).add(o.pose.q.y()).add(o.pose.q.z());
+}
+
+// Adds a world-frame lesion shape to a key.
+void add_lesion(BuildKey& key, const LesionShape& s) {
+  key.add(static_cast<int64_t>(s.kind));
+  for (const Vec3* v : {&s.center, &s.normal, &s.tangent}) key.add(v->x()).add(v->y()).add(v->z());
+  key.add(s.size).add(s.width).add(s.depth);
+  for (const auto& p : s.polygon) key.add(p.x()).add(p.y());
+}
+
+// Adds tree parameters and the level-set resolution to a key.
+void add_tree(BuildKey& key, const TreeParams& p, double voxel, double half_band) {
+  key.add(static_cast<int64_t>(p.mode)).add(int64_t{p.depth}).add(p.tolerance).add(p.max_radius).add(p.min_radius);
+  key.add(int64_t{p.fill_interior}).add(static_cast<int64_t>(p.max_leaves)).add(int64_t{p.branching});
+  key.add(voxel).add(half_band);
+}
+
+// Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
+std::optional<double> nearest_crossing(const TriangleMesh& mesh, const Vec3& c, const Vec3& d, double range) {
+  std::optional<double> best;
+  for (const auto& tri : mesh.triangles) {
+    // Möller-Trumbore, double precision, both windings.
+    const Vec3 a = mesh.vertices[tri[0]].cast<double>();
+    const Vec3 e1 = mesh.vertices[tri[1]].cast<double>() - a;
+    const Vec3 e2 = mesh.vertices[tri[2]].cast<double>() - a;
+    const Vec3 p = d.cross(e2);
+    const double det = e1.dot(p);
+    if (std::abs(det) < 1e-14) continue;
+    const Vec3 s = c - a;
+    const double u = s.dot(p) / det;
+    if (u < 0.0 || u > 1.0) continue;
+    const Vec3 q = s.cross(e1);
+    const double v = d.dot(q) / det;
+    if (v < 0.0 || u + v > 1.0) continue;
+    const double t = e2.dot(q) / det;
+    if (std::abs(t) <= range && (!best || std::abs(t) < std::abs(*best))) best = t;
+  }
+  return best;
+}
+
+// A lesion in the world, its centre snapped onto the host's world surface along the normal.
+LesionShape place_lesion(const SceneDesc& scene, const LesionDesc& l, const TriangleMesh& host_world) {
+  LesionShape s = lesion_shape_in_world(scene, l);
+  if (!l.snap) return s;
+  const std::optional<double> t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
+  if (!t) {
+    throw Error(fmt::format("{}: the line through placement.at along the normal does not meet the surface of '{}' "
+                            "within snap_range {} mm",
+                            lesion_context(l), scene.objects[static_cast<std::size_t>(l.object)].name, l.snap_range));
+  }
+  s.center += *t * s.normal;
+  return s;
+}
+
+// Tree parameters of an object after the command-line overrides.
+TreeParams effective_params(const ObjectDesc& o, const BuildOptions& options) {
+  TreeParams p = o.tree.params;
+  if (options.mode) p.mode = *options.mode;
+  if (options.octree_depth) p.depth = *options.octree_depth;
+  if (options.tolerance) p.tolerance = *options.tolerance;
+  return p;
+}
+
+// The state of building one scene object's parts.
+struct ObjectBuild {
+  const ObjectDesc* desc = nullptr;
+  TriangleMesh world_mesh;               // the object's surface in the world
+  std::vector<int> lesions;              // indices into SceneDesc::lesions
+  std::vector<LesionShape> shapes;       // their world shapes (snapped)
+  TreeParams params;
+  LevelSetResolution resolution;
+  std::optional<LevelSet> object_ls;     // made on demand
+  std::vector<LevelSet> lesion_ls;       // made on demand
+};
+
+// Level sets of the object and its lesions (once).
+void make_level_sets(ObjectBuild& b) {
+  if (b.object_ls) return;
+  try {
+    b.object_ls = LevelSet::from_mesh(b.world_mesh, b.resolution.voxel, b.resolution.half_band);
+    for (const LesionShape& s : b.shapes) b.lesion_ls.push_back(s.to_level_set(b.resolution.voxel, b.resolution.half_band));
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", object_context(*b.desc), e.what()));
+  }
+}
+
+// The level set of part `part` (-1 healthy, or the whole object without lesions; else the k-th lesion).
+LevelSet part_level_set(ObjectBuild& b, int part) {
+  make_level_sets(b);
+  if (part < 0) {
+    LevelSet healthy = *b.object_ls;
+    for (const LevelSet& lesion : b.lesion_ls) healthy = healthy.difference(lesion);
+    return healthy;
+  }
+  // Caries of lesion k: the object inside it, minus the lesions listed before it.
+  LevelSet caries = b.object_ls->intersection(b.lesion_ls[static_cast<std::size_t>(part)]);
+  for (int j = 0; j < part; ++j) caries = caries.difference(b.lesion_ls[static_cast<std::size_t>(j)]);
+  return caries;
+}
+
+// The per-part progress callback: the part's name and the tree builder's fraction.
+ProgressFn part_progress(const BuildOptions& options, const std::string& name) {
+  if (!options.progress) return {};
+  return [&options, name](std::string_view stage, double fraction) {
+    options.progress(fmt::format("{}: {}", name, stage), fraction);
+  };
+}
+
+}  // namespace
+
+Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildReport* report_out) {
+  const auto start = Clock::now();
+  Model model;
+  model.scene_name = scene.name;
+  const std::optional<TreeCache> cache =
+      options.use_cache ? std::optional<TreeCache>(options.cache_dir.empty() ? TreeCache() : TreeCache(options.cache_dir))
+                        : std::nullopt;
+  BuildReport local_report;
+  BuildReport& out = report_out ? *report_out : local_report;
+  out.parts.clear();
+  BuildKey scene_key;
+  scene_key.add(static_cast<int64_t>(scene.source_hash));
+
+  // Materials: each object's healthy material (and dentin below its enamel), then one per lesion.
+  std::vector<uint16_t> healthy_material(scene.objects.size());
+  std::vector<int> dentin_material(scene.objects.size(), -1);
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDesc& o = scene.objects[i];
+    Material m;
+    m.tissue = o.tissue;
+    m.stiffness = o.material.stiffness;
+    m.mu_s = o.material.mu_s;
+    m.mu_d = o.material.mu_d;
+    healthy_material[i] = static_cast<uint16_t>(model.materials.size());
+    model.materials.push_back(m);
+    if (o.enamel_thickness) {
+      m.tissue = Tissue::Dentin;
+      dentin_material[i] = static_cast<int>(model.materials.size());
+      model.materials.push_back(m);
+    }
+  }
+  std::vector<uint16_t> lesion_material(scene.lesions.size());
+  for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
+    const LesionDesc& l = scene.lesions[k];
+    Material m = l.material;
+    m.lesion = static_cast<int16_t>(k);
+    if (!l.world_frame) m.aniso_dir = scene.objects[static_cast<std::size_t>(l.object)].pose.q * m.aniso_dir;
+    lesion_material[k] = static_cast<uint16_t>(model.materials.size());
+    model.materials.push_back(m);
+  }
+  model.lesions.resize(scene.lesions.size());
+
+  // Parts, object by object: the healthy (or whole) part, then one caries part per lesion.
+  const std::size_t part_total = scene.objects.size() + scene.lesions.size();
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDesc& o = scene.objects[i];
+    ObjectBuild b;
+    b.desc = &o;
+    b.world_mesh = object_mesh(o);
+    b.world_mesh.transform(o.pose);
+    b.params = effective_params(o, options);
+    try {
+      b.resolution = choose_resolution(b.world_mesh, b.params);
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", object_context(o), e.what()));
+    }
+    if (o.tree.voxel) b.resolution = {*o.tree.voxel, kBandVoxels * *o.tree.voxel};
+    for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
+      if (scene.lesions[k].object != static_cast<int>(i)) continue;
+      b.lesions.push_back(static_cast<int>(k));
+      b.shapes.push_back(place_lesion(scene, scene.lesions[k], b.world_mesh));
+    }
+
+    // What determines this object's parts.
+    BuildKey object_key;
+    object_key.add(kPartFormat);
+    add_geometry(object_key, o);
+    add_tree(object_key, b.params, b.resolution.voxel, b.resolution.half_band);
+    for (const LesionShape& s : b.shapes) add_lesion(object_key, s);
+    scene_key.add(static_cast<int64_t>(object_key.value()));
+
+    const int healthy_index = static_cast<int>(model.objects.size());
+    for (int part = -1; part < static_cast<int>(b.lesions.size()); ++part) {
+      const auto part_start = Clock::now();
+      const bool whole = b.lesions.empty();
+      const std::string name =
+          whole ? o.name
+                : fmt::format("{}/{}", o.name,
+                              part < 0 ? std::string("healthy")
+                                       : scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])].name);
+      report(options.progress, name, 0.0);
+      BuildKey part_key(object_key);
+      part_key.add(int64_t{part});
+
+      // Cached, else built: level sets, CSG, tree, leaf labels, display mesh.
+      PartReport part_report;
+      part_report.name = name;
+      part_report.object = static_cast<int>(model.objects.size());
+      std::optional<CachedPart> cached = cache ? cache->load(part_key.value()) : std::nullopt;
+      std::optional<LevelSet> part_ls;
+      if (cached) {
+        part_report.cache_hit = true;
+      } else {
+        part_ls = part_level_set(b, part);
+        CachedPart built;
+        try {
+          built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
+        } catch (const Error& e) {
+          throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
+        }
+        if (built.tree.empty()) {
+          if (part >= 0) {
+            const LesionDesc& l = scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+            throw Error(fmt::format("{}: the lesion does not overlap '{}' (its caries part is empty)",
+                                    lesion_context(l), o.name));
+          }
+          throw Error(fmt::format("{}: {} is empty (do the lesions cover the whole object?)", object_context(o), name));
+        }
+        classify_leaves(built.tree, *b.object_ls, b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution.voxel);
+        built.display = whole ? b.world_mesh : part_ls->to_mesh();
+        if (cache) cache->store(part_key.value(), built);
+        cached = std::move(built);
+      }
+
+      // Materials from the leaf depth: healthy enamel/dentin, or the lesion's.
+      SphereTree tree = std::move(cached->tree);
+      if (part < 0) {
+        const uint16_t enamel = healthy_material[i];
+        const int dentin = dentin_material[i];
+        const double thickness = o.enamel_thickness.value_or(std::numeric_limits<double>::infinity());
+        assign_materials(tree, [&](const Vec3&, float depth) {
+          return dentin >= 0 && depth > thickness ? static_cast<uint16_t>(dentin) : enamel;
+        });
+      } else {
+        const uint16_t m = lesion_material[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+        assign_materials(tree, [m](const Vec3&, float) { return m; });
+      }
+      if (const std::string problem = check_tree(tree, 1e-3); !problem.empty()) {
+        throw Error(fmt::format("{}: {}: invalid tree: {}", object_context(o), name, problem));
+      }
+
+      // Surface deviation (on request): against the input mesh for a whole object, else the part's surface.
+      if (options.measure_deviation) {
+        if (!part_ls) part_ls = part_level_set(b, part);
+        part_report.deviation = measure_deviation(tree, whole ? b.world_mesh : cached->display, *part_ls,
+                                                  options.deviation_samples);
+      }
+
+      // The collision object, its display part, and the lesion it shows.
+      CollisionObject object;
+      object.name = name;
+      object.kind = o.kind;
+      object.scene_object = static_cast<int16_t>(i);
+      DisplayPart display;
+      display.name = name;
+      display.mesh = std::move(cached->display);
+      display.tissue = o.tissue;
+      display.object = static_cast<int16_t>(model.objects.size());
+      if (part >= 0) {
+        const std::size_t k = static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)]);
+        object.lesion = static_cast<int16_t>(k);
+        object.host = static_cast<int16_t>(healthy_index);
+        display.tissue = Tissue::Caries;
+        display.lesion = static_cast<int16_t>(k);
+        LesionModel& lm = model.lesions[k];
+        lm.name = scene.lesions[k].name;
+        lm.object = static_cast<int16_t>(model.objects.size());
+        lm.host = static_cast<int16_t>(healthy_index);
+        lm.material = lesion_material[k];
+        lm.shape = b.shapes[static_cast<std::size_t>(part)];
+        lm.authored_depth = scene.lesions[k].shape.depth;
+        lm.severity = scene.lesions[k].severity;
+      }
+      part_report.leaves = tree.leaf_count();
+      part_report.levels = tree.levels;
+      part_report.nodes_per_level = tree.nodes_per_level();
+      object.tree = std::move(tree);
+      model.objects.push_back(std::move(object));
+      model.display.push_back(std::move(display));
+      part_report.build_seconds = seconds_since(part_start);
+      out.parts.push_back(std::move(part_report));
+      report(options.progress, name, 1.0);
+      report(options.progress, "scene", static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
+    }
+  }
+
+  // The tool: the explorer's sphere chain, its tree and display mesh.
+  try {
+    model.tool.params = scene.tool;
+    model.tool.tree = build_tool_tree(make_explorer_spheres(scene.tool, scene.tool_max_gap));
+    model.tool.display = make_explorer_mesh(scene.tool);
+    model.tool.tip_radius = scene.tool.tip_radius;
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: tool: {}", scene.origin, e.what()));
+  }
+
+  // Device, coupling, rate.
+  model.limits = scene.limits;
+  model.gains = scene.gains;
+  model.servo_rate = scene.servo_rate;
+  model.scene_hash = scene_key.value();
+
+  // The tool's home: as given, else above the scene's highest point, pointing down; it must be free.
+  if (scene.tool_home) {
+    model.tool_home = *scene.tool_home;
+  } else {
+    Eigen::AlignedBox3d bounds;
+    for (const DisplayPart& part : model.display) bounds.extend(part.mesh.bounds());
+    model.tool_home.p = Vec3(bounds.center().x(), bounds.center().y(), bounds.max().z() + kHomeClearance);
+  }
+  PlacedTool placed(model.tool.tree);
+  placed.place(model.tool_home, 0.0);
+  const ClosestPair near = closest(placed, model.objects, kAllObjects, 0.0);
+  if (near.gap < 0.0) {
+    throw Error(fmt::format("{}: tool.home: the tool at its home pose overlaps '{}' by {:.3f} mm", scene.origin,
+                            model.objects[near.object].name, -near.gap));
+  }
+  out.total_seconds = seconds_since(start);
+  return model;
+}
+
+}  // namespace cariesim

@@ -1,0 +1,201 @@
+// Runs the cariesim binary (CARIESIM_EXE): `scene check` on good and bad scenes, `tree --json`.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+struct Run {
+  int status = -1;  // exit status
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A scratch folder per test, removed afterwards.
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("cariesim_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Runs `cariesim ARGS` with the cache in the scratch folder; captures both streams.
+  Run run(const std::string& args) const {
+    const fs::path out = dir_ / "stdout.txt";
+    const fs::path err = dir_ / "stderr.txt";
+    const std::string command = "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "' '" + CARIESIM_EXE + "' " +
+                                args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+    const int raw = std::system(command.c_str());
+    Run r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+  }
+
+  fs::path write(const std::string& name, const std::string& text) const {
+    const fs::path file = dir_ / name;
+    std::ofstream(file, std::ios::binary) << text;
+    return file;
+  }
+
+  // Checks `json` with Python's strict parser and a script over `d`; returns the script's output.
+  std::string python_json(const std::string& json, const std::string& script) const {
+    const fs::path data = write("out.json", json);
+    const fs::path code = write("check.py", "import json, sys\nd = json.load(open(sys.argv[1]))\n" + script);
+    const fs::path result = dir_ / "python.txt";
+    const std::string command =
+        "python3 '" + code.string() + "' '" + data.string() + "' >'" + result.string() + "' 2>&1";
+    const int raw = std::system(command.c_str());
+    EXPECT_TRUE(WIFEXITED(raw) && WEXITSTATUS(raw) == 0) << read_text(result) << "\nJSON:\n" << json;
+    return read_text(result);
+  }
+
+  fs::path dir_;
+};
+
+// A closed cube of side `s` mm as ASCII STL (12 outward triangles).
+std::string cube_stl(double s) {
+  const double v[8][3] = {{0, 0, 0}, {s, 0, 0}, {s, s, 0}, {0, s, 0}, {0, 0, s}, {s, 0, s}, {s, s, s}, {0, s, s}};
+  const int f[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                        {1, 2, 6}, {1, 6, 5}, {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
+  std::ostringstream out;
+  out << "solid cube\n";
+  for (const auto& t : f) {
+    out << " facet normal 0 0 0\n  outer loop\n";
+    for (int k : t) out << "   vertex " << v[k][0] << ' ' << v[k][1] << ' ' << v[k][2] << '\n';
+    out << "  endloop\n endfacet\n";
+  }
+  out << "endsolid cube\n";
+  return out.str();
+}
+
+TEST_F(CliTest, SceneCheckAcceptsTheBuiltInsAndFiles) {
+  const Run builtin = run("scene check oral-cavity");
+  EXPECT_EQ(builtin.status, 0) << builtin.err;
+  EXPECT_THAT(builtin.out, HasSubstr("ok: oral-cavity"));
+  EXPECT_THAT(builtin.out, HasSubstr("lesion1"));
+
+  const Run file = run("scene check '" + std::string(CARIESIM_SOURCE_DIR) + "/scenes/friction-block.yaml'");
+  EXPECT_EQ(file.status, 0) << file.err;
+  EXPECT_THAT(file.out, HasSubstr("ok: friction-block"));
+}
+
+TEST_F(CliTest, SceneCheckRejectsBadFilesWithLineAndColumn) {
+  const std::string head = "objects:\n  - name: block\n    shape: {type: cuboid, size: [10, 20, 5]}\n";
+  const fs::path wrong_type = write("wrong_type.yaml", head + "    pose: {position: 5}\n");
+  Run r = run("scene check '" + wrong_type.string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("wrong_type.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
+
+  const fs::path missing = write("missing.yaml", "objects:\n  - name: block\n");
+  r = run("scene check '" + missing.string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("missing.yaml:2:5: objects[0].shape: missing required field"));
+
+  const fs::path unknown = write("unknown.yaml", head + "    tissu: enamel\n");
+  r = run("scene check '" + unknown.string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("unknown.yaml:4:5: objects[0].tissu: unknown key (did you mean 'tissue'?"));
+
+  const fs::path bad_enum = write("bad_enum.yaml", head + "    kind: jelly\n");
+  r = run("scene check '" + bad_enum.string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("bad_enum.yaml:4:11: objects[0].kind: unknown kind 'jelly'"));
+
+  r = run("scene check no-such-scene");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("no-such-scene"));
+}
+
+TEST_F(CliTest, SceneCheckValidatesMeshContent) {
+  write("empty.stl", "");
+  const fs::path scene = write("scan.yaml", "objects:\n  - name: scan\n    shape: {type: mesh, file: empty.stl}\n");
+  const Run r = run("scene check '" + scene.string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("scan.yaml:2:5: object 'scan'"));
+  EXPECT_THAT(r.err, HasSubstr("empty.stl"));
+}
+
+TEST_F(CliTest, TreeJsonOnAMeshHasTheRequiredKeys) {
+  const fs::path mesh = write("cube.stl", cube_stl(3.0));
+  const Run r = run("tree '" + mesh.string() + "' --json --quiet --tolerance 0.05");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << "--quiet prints no progress: " << r.err;
+  const std::string checked = python_json(r.out, R"(
+assert isinstance(d, dict)
+assert isinstance(d["leaves"], int) and d["leaves"] > 0
+assert isinstance(d["levels"], int) and d["levels"] >= 1
+assert d["build_seconds"] >= 0
+dev = d["deviation_mm"]
+assert 0 <= dev["p50"] <= dev["p95"] <= dev["max"], dev
+assert dev["samples"] >= 100000, dev
+assert sum(d["nodes_per_level"]) >= d["leaves"]
+print("leaves", d["leaves"])
+)");
+  EXPECT_THAT(checked, HasSubstr("leaves"));
+}
+
+TEST_F(CliTest, TreeOnASceneReportsEveryPartAndUsesTheCache) {
+  write("cube.stl", cube_stl(4.0));
+  const fs::path scene = write("small.yaml", R"(objects:
+  - name: block
+    shape: {type: mesh, file: cube.stl}
+    tree: {tolerance: 0.05, max_radius: 0.8}
+lesions:
+  - name: pit
+    object: block
+    placement: {at: [2, 2, 4], normal: [0, 0, 1]}
+    shape: {type: disk, size: 1.5, depth: 1.0}
+    severity: severe
+)");
+  const std::string check_parts = R"(
+names = [p["name"] for p in d["parts"]]
+assert names == ["block/healthy", "block/pit"], names
+for p in d["parts"]:
+    assert p["leaves"] > 0 and p["levels"] >= 1
+    assert p["deviation_mm"]["max"] >= p["deviation_mm"]["p95"]
+print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
+)";
+  const Run first = run("tree '" + scene.string() + "' --json");
+  ASSERT_EQ(first.status, 0) << first.err;
+  EXPECT_FALSE(first.err.empty()) << "progress goes to stderr";
+  EXPECT_THAT(python_json(first.out, check_parts), HasSubstr("cold"));
+  const Run second = run("tree '" + scene.string() + "' --json --quiet");
+  ASSERT_EQ(second.status, 0) << second.err;
+  EXPECT_THAT(python_json(second.out, check_parts), HasSubstr("hit"));
+  const Run text = run("tree '" + scene.string() + "' --quiet --no-cache");
+  ASSERT_EQ(text.status, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("block/pit"));
+  EXPECT_THAT(text.out, HasSubstr("deviation mm: p50"));
+}
+
+TEST_F(CliTest, TreeRejectsABadMesh) {
+  const fs::path mesh = write("broken.stl", "solid x\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n");
+  const Run r = run("tree '" + mesh.string() + "' --quiet --no-cache");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.err, HasSubstr("broken.stl"));
+}
+
+}  // namespace
