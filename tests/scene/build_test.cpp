@@ -1,0 +1,254 @@
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "cariesim/collision/collide.hpp"
+#include "cariesim/common/error.hpp"
+#include "cariesim/scene/scene.hpp"
+
+namespace cariesim {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+// A 6 x 6 x 4 mm block (top face at z = 0) with a disk lesion on top; `extra` is appended.
+std::string block_scene(const std::string& lesion_placement, const std::string& extra = "") {
+  return R"(objects:
+  - name: block
+    shape: {type: cuboid, size: [6, 6, 4]}
+    pose: {position: [1, 2, 3]}
+    tissue: enamel
+    enamel_thickness: 0.6
+    tree: {tolerance: 0.05, max_radius: 0.8}
+lesions:
+  - name: pit
+    object: block
+    placement: )" +
+         lesion_placement + R"(
+    shape: {type: disk, size: 2.0, depth: 1.0}
+    severity: severe
+    material: {anisotropic: {direction: [1, 0, 0], mu_s: 0.9, mu_d: 0.8}}
+)" + extra;
+}
+
+// A cache folder per test, removed afterwards.
+class BuildTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    cache_ = fs::temp_directory_path() / ("cariesim_build_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(cache_);
+  }
+  void TearDown() override { fs::remove_all(cache_); }
+  BuildOptions options() const {
+    BuildOptions o;
+    o.cache_dir = cache_;
+    return o;
+  }
+  fs::path cache_;
+};
+
+// Smallest gap (mm) between a point and the union of a tree's leaves.
+double gap_to_leaves(const SphereTree& tree, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const uint32_t n : tree.leaf_nodes) {
+    best = std::min(best, (tree.nodes[n].center.cast<double>() - p).norm() - tree.nodes[n].radius);
+  }
+  return best;
+}
+
+TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
+  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 0.7], normal: [0, 0, 1], snap_range: 2}"), "b.yaml");
+  BuildReport report;
+  const Model model = build_model(scene, options(), &report);
+
+  // Parts: healthy block, caries of the lesion.
+  ASSERT_EQ(model.objects.size(), 2u);
+  EXPECT_EQ(model.objects[0].name, "block/healthy");
+  EXPECT_EQ(model.objects[1].name, "block/pit");
+  EXPECT_EQ(model.objects[0].lesion, -1);
+  EXPECT_EQ(model.objects[1].lesion, 0);
+  EXPECT_EQ(model.objects[1].host, 0);
+  EXPECT_EQ(model.objects[1].scene_object, 0);
+  ASSERT_EQ(report.parts.size(), 2u);
+  EXPECT_FALSE(report.parts[0].cache_hit);
+  EXPECT_EQ(report.parts[1].leaves, model.objects[1].tree.leaf_count());
+
+  // The lesion: snapped onto the top face (world z = 3), its material and severity.
+  ASSERT_EQ(model.lesions.size(), 1u);
+  const LesionModel& lesion = model.lesions[0];
+  EXPECT_EQ(lesion.object, 1);
+  EXPECT_EQ(lesion.host, 0);
+  EXPECT_EQ(lesion.severity, "severe");
+  EXPECT_DOUBLE_EQ(lesion.authored_depth, 1.0);
+  EXPECT_NEAR(lesion.shape.center.z(), 3.0, 1e-6);
+  EXPECT_NEAR(lesion.shape.center.x(), 1.0, 1e-9);
+  const Material& caries = model.materials.at(lesion.material);
+  EXPECT_EQ(caries.tissue, Tissue::Caries);
+  EXPECT_EQ(caries.lesion, 0);
+  EXPECT_DOUBLE_EQ(caries.mu_s, caries_preset(CariesPreset::Severe).mu_s);
+
+  // Every caries leaf carries the lesion's material; healthy leaves are enamel or (deeper) dentin.
+  for (const uint32_t n : model.objects[1].tree.leaf_nodes) {
+    ASSERT_EQ(model.objects[1].tree.nodes[n].material, lesion.material);
+  }
+  int enamel = 0;
+  int dentin = 0;
+  const SphereTree& healthy = model.objects[0].tree;
+  for (std::size_t i = 0; i < healthy.leaf_nodes.size(); ++i) {
+    const Material& m = model.materials.at(healthy.nodes[healthy.leaf_nodes[i]].material);
+    ASSERT_TRUE(m.tissue == Tissue::Enamel || m.tissue == Tissue::Dentin);
+    EXPECT_TRUE(m.rigid());
+    (m.tissue == Tissue::Enamel ? enamel : dentin)++;
+    if (m.tissue == Tissue::Dentin) EXPECT_GT(healthy.leaf_depth[i], 0.6f);
+  }
+  EXPECT_GT(enamel, 0);
+  EXPECT_GT(dentin, 0);
+
+  // A point inside the lesion and the block lies in a caries leaf, not a healthy one.
+  const Vec3 inside(1.0, 2.0, 2.6);
+  EXPECT_LE(gap_to_leaves(model.objects[1].tree, inside), 0.0);
+  EXPECT_GT(gap_to_leaves(model.objects[0].tree, inside), 0.0);
+
+  // Display parts, the tool and its free home pose.
+  ASSERT_EQ(model.display.size(), 2u);
+  EXPECT_EQ(model.display[1].lesion, 0);
+  EXPECT_EQ(model.display[1].tissue, Tissue::Caries);
+  EXPECT_FALSE(model.display[0].mesh.triangles.empty());
+  EXPECT_FALSE(model.tool.tree.empty());
+  EXPECT_FALSE(model.tool.display.triangles.empty());
+  EXPECT_GT(model.tool_home.p.z(), 3.0);
+  PlacedTool placed(model.tool.tree);
+  placed.place(model.tool_home, 0.0);
+  EXPECT_GE(closest(placed, model.objects, kAllObjects, 1.0).gap, 0.0);
+}
+
+TEST_F(BuildTest, ObjectFrameAnisotropyIsRotatedIntoTheWorld) {
+  std::string yaml = block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}");
+  yaml.replace(yaml.find("pose: {position: [1, 2, 3]}"), 27,
+               "pose: {position: [1, 2, 3], rotation: {axis: [0, 0, 1], angle: 90}}");
+  const Model model = build_model(parse_scene(yaml, "b.yaml"), options());
+  const Material& m = model.materials.at(model.lesions.at(0).material);
+  EXPECT_TRUE(m.aniso_dir.isApprox(Vec3::UnitY(), 1e-12));
+}
+
+TEST_F(BuildTest, CacheHitGivesTheSameTrees) {
+  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}"), "b.yaml");
+  BuildReport cold;
+  const Model first = build_model(scene, options(), &cold);
+  BuildReport hit;
+  const Model second = build_model(scene, options(), &hit);
+  ASSERT_EQ(hit.parts.size(), cold.parts.size());
+  for (std::size_t i = 0; i < hit.parts.size(); ++i) {
+    EXPECT_FALSE(cold.parts[i].cache_hit);
+    EXPECT_TRUE(hit.parts[i].cache_hit);
+    const SphereTree& a = first.objects[i].tree;
+    const SphereTree& b = second.objects[i].tree;
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    for (std::size_t n = 0; n < a.nodes.size(); ++n) {
+      ASSERT_EQ(a.nodes[n].center, b.nodes[n].center);
+      ASSERT_EQ(a.nodes[n].radius, b.nodes[n].radius);
+      ASSERT_EQ(a.nodes[n].material, b.nodes[n].material);
+    }
+  }
+  EXPECT_EQ(first.scene_hash, second.scene_hash);
+
+  // Any change to a lesion misses the cache for that object's parts.
+  const SceneDesc moved = parse_scene(block_scene("{at: [0.5, 0, 0], normal: [0, 0, 1]}"), "b.yaml");
+  BuildReport changed;
+  const Model third = build_model(moved, options(), &changed);
+  EXPECT_FALSE(changed.parts[0].cache_hit);
+  EXPECT_FALSE(changed.parts[1].cache_hit);
+  EXPECT_NE(third.scene_hash, first.scene_hash);
+
+  // Without the cache nothing is read.
+  BuildOptions no_cache = options();
+  no_cache.use_cache = false;
+  BuildReport uncached;
+  (void)build_model(scene, no_cache, &uncached);
+  EXPECT_FALSE(uncached.parts[0].cache_hit);
+}
+
+TEST_F(BuildTest, DeviationIsMeasuredOnRequest) {
+  BuildOptions o = options();
+  o.measure_deviation = true;
+  o.deviation_samples = 20000;
+  BuildReport report;
+  (void)build_model(parse_scene(block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}"), "b.yaml"), o, &report);
+  for (const PartReport& part : report.parts) {
+    ASSERT_TRUE(part.deviation.has_value()) << part.name;
+    EXPECT_GE(part.deviation->samples, 20000u);
+    EXPECT_LE(part.deviation->p50, part.deviation->p95);
+    EXPECT_LE(part.deviation->p95, part.deviation->max);
+    EXPECT_TRUE(std::isfinite(part.deviation->max));
+  }
+}
+
+TEST_F(BuildTest, ALesionThatMissesItsObjectIsAnError) {
+  const SceneDesc scene =
+      parse_scene(block_scene("{at: [30, 0, 0], normal: [0, 0, 1], snap: false}"), "miss.yaml");
+  try {
+    (void)build_model(scene, options());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("miss.yaml:9:5: lesion 'pit'"));
+    EXPECT_THAT(e.what(), HasSubstr("does not overlap 'block'"));
+  }
+}
+
+TEST_F(BuildTest, SnappingWithNoSurfaceInRangeIsAnError) {
+  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 9], normal: [0, 0, 1], snap_range: 2}"), "far.yaml");
+  try {
+    (void)build_model(scene, options());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("far.yaml:9:5: lesion 'pit'"));
+    EXPECT_THAT(e.what(), HasSubstr("snap_range 2 mm"));
+  }
+}
+
+TEST_F(BuildTest, AToolHomeInsideAnObjectIsAnError) {
+  const SceneDesc scene =
+      parse_scene(block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}", "tool: {home: {position: [1, 2, 1]}}\n"), "h.yaml");
+  try {
+    (void)build_model(scene, options());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("tool.home"));
+  }
+}
+
+TEST_F(BuildTest, CommandLineOverridesChangeTheTrees) {
+  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}"), "b.yaml");
+  BuildOptions o = options();
+  o.mode = TreeMode::Octree;
+  o.octree_depth = 2;
+  const Model model = build_model(scene, o);
+  for (const CollisionObject& object : model.objects) {
+    EXPECT_EQ(object.tree.mode, TreeMode::Octree);
+    EXPECT_LE(object.tree.leaf_count(), 64u);  // 8^2
+  }
+}
+
+TEST(MeshScene, WrapsAMeshFile) {
+  EXPECT_THROW((void)mesh_scene("/no/such/file.stl"), Error);
+  const fs::path file = fs::temp_directory_path() / ("cariesim_mesh_scene_" + std::to_string(::getpid()) + ".stl");
+  std::ofstream(file) << "solid x\nendsolid x\n";
+  const SceneDesc s = mesh_scene(file);
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].shape.kind, ShapeDesc::Kind::Mesh);
+  EXPECT_EQ(s.objects[0].shape.file, file);
+  EXPECT_EQ(s.objects[0].kind, ObjectKind::Rigid);
+  fs::remove(file);
+}
+
+}  // namespace
+}  // namespace cariesim

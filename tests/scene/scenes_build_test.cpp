@@ -1,0 +1,149 @@
+// Builds the built-in oral cavity (no files needed) and the real-scan example scene. Trees are cached
+// in the build folder, so only the first run pays for building them.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+
+#include "cariesim/collision/collide.hpp"
+#include "cariesim/scene/scene.hpp"
+
+namespace cariesim {
+namespace {
+
+namespace fs = std::filesystem;
+
+BuildOptions test_options() {
+  BuildOptions o;
+  o.cache_dir = fs::path(CARIESIM_BINARY_DIR) / "test-cache";
+  return o;
+}
+
+// Smallest gap (mm) between a point and the union of a tree's leaves.
+double gap_to_leaves(const SphereTree& tree, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const uint32_t n : tree.leaf_nodes) {
+    best = std::min(best, (tree.nodes[n].center.cast<double>() - p).norm() - tree.nodes[n].radius);
+  }
+  return best;
+}
+
+// Index of the collision object of that name.
+int object_named(const Model& model, const std::string& name) {
+  for (std::size_t i = 0; i < model.objects.size(); ++i) {
+    if (model.objects[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+// Smallest gap (mm) between the leaves of two objects (branch and bound through the collision query).
+double gap_between(const Model& model, int a, int b) {
+  PlacedTool placed(model.objects[static_cast<std::size_t>(a)].tree);
+  placed.place(Pose{}, 0.0);
+  return closest(placed, model.objects, ObjectMask{1} << b, 10.0).gap;
+}
+
+class OralCavity : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { model_ = new Model(build_model(load_scene("oral-cavity"), test_options())); }
+  static void TearDownTestSuite() {
+    delete model_;
+    model_ = nullptr;
+  }
+  static Model* model_;
+};
+Model* OralCavity::model_ = nullptr;
+
+TEST_F(OralCavity, BuildsEveryPartWithNoFiles) {
+  const Model& m = *model_;
+  EXPECT_EQ(m.objects.size(), 12u);  // 6 teeth, 2 gingiva bands, tongue, 3 caries parts
+  EXPECT_EQ(m.display.size(), m.objects.size());
+  for (const CollisionObject& o : m.objects) {
+    EXPECT_FALSE(o.tree.empty()) << o.name;
+    EXPECT_EQ(check_tree(o.tree, 1e-3), "") << o.name;
+  }
+  EXPECT_EQ(m.objects[static_cast<std::size_t>(object_named(m, "tongue"))].kind, ObjectKind::Soft);
+  EXPECT_EQ(m.objects[static_cast<std::size_t>(object_named(m, "gingiva-left"))].kind, ObjectKind::Soft);
+  EXPECT_EQ(m.objects[static_cast<std::size_t>(object_named(m, "tooth45"))].kind, ObjectKind::Rigid);
+  PlacedTool tool(m.tool.tree);
+  tool.place(m.tool_home, 0.0);
+  EXPECT_GE(closest(tool, m.objects, kAllObjects, 5.0).gap, 0.0);
+}
+
+TEST_F(OralCavity, LesionsSitOnTheirTeeth) {
+  const Model& m = *model_;
+  ASSERT_EQ(m.lesions.size(), 3u);
+  const int healthy46 = object_named(m, "tooth46/healthy");
+  const int healthy36 = object_named(m, "tooth36/healthy");
+  ASSERT_GE(healthy46, 0);
+  ASSERT_GE(healthy36, 0);
+  EXPECT_EQ(m.lesions[0].host, healthy46);
+  EXPECT_EQ(m.lesions[1].host, healthy46);
+  EXPECT_EQ(m.lesions[2].host, healthy36);
+  for (const LesionModel& l : m.lesions) {
+    const CollisionObject& caries = m.objects[static_cast<std::size_t>(l.object)];
+    EXPECT_EQ(caries.lesion, &l - m.lesions.data());
+    EXPECT_GT(caries.tree.leaf_count(), 10u) << l.name;
+    // The caries reaches about the authored depth below the surface, not beyond.
+    const float deepest = *std::max_element(caries.tree.leaf_depth.begin(), caries.tree.leaf_depth.end());
+    EXPECT_GT(deepest, 0.3 * l.authored_depth) << l.name;
+    EXPECT_LT(deepest, l.authored_depth + 0.1) << l.name;
+    // Every caries leaf carries the lesion's material.
+    for (const uint32_t n : caries.tree.leaf_nodes) ASSERT_EQ(caries.tree.nodes[n].material, l.material);
+  }
+  // The occlusal lesions lie in the crown, below the authored point (snapped into the fossa).
+  for (const LesionModel* l : {&m.lesions[0], &m.lesions[2]}) {
+    EXPECT_GT(l->shape.center.z(), 4.0) << l->name;
+    EXPECT_LE(l->shape.center.z(), 7.0 + 1e-9) << l->name;
+  }
+}
+
+// Lesion #2 faces 45 across a gap a correctly angled explorer fits through (paper Fig. 17b).
+TEST_F(OralCavity, InterproximalGapIsProbeSized) {
+  const Model& m = *model_;
+  const int tooth45 = object_named(m, "tooth45");
+  ASSERT_GE(tooth45, 0);
+  const double gap = gap_to_leaves(m.objects[static_cast<std::size_t>(tooth45)].tree, m.lesions[1].shape.center);
+  EXPECT_GT(gap, 1.3);
+  EXPECT_LT(gap, 2.3);
+  // The neighbouring teeth, and the tongue and the teeth, do not touch.
+  EXPECT_GT(gap_between(m, object_named(m, "tooth46/healthy"), tooth45), 0.3);
+  EXPECT_GT(gap_between(m, object_named(m, "tooth36/healthy"), object_named(m, "tooth35")), 0.1);
+  for (const char* tooth : {"tooth46/healthy", "tooth45", "tooth47", "tooth36/healthy", "tooth35", "tooth37"}) {
+    EXPECT_GT(gap_between(m, object_named(m, "tongue"), object_named(m, tooth)), 0.5) << tooth;
+  }
+}
+
+// scenes/examples/real-tooth.yaml: a real scan by a path relative to the scene file, with a lesion.
+TEST(ExampleScenes, RealToothScanBuilds) {
+  const fs::path data = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
+  if (!fs::exists(data)) GTEST_SKIP() << "shared data absent: " << data;
+  // From its place in the checkout when the data sits beside it; else as if the checkout did.
+  const fs::path file = fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml";
+  const fs::path beside = file.parent_path() / "../../../shared/data/open-full-jaw/patient26/tooth_30.stl";
+  const fs::path origin = fs::exists(beside) ? file
+                                             : fs::path(CARIESIM_SHARED_DATA_DIR).parent_path().parent_path() /
+                                                   "checkout" / "scenes" / "examples" / "real-tooth.yaml";
+  std::ifstream in(file, std::ios::binary);
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const SceneDesc scene = parse_scene(text, origin);
+  ASSERT_EQ(scene.objects.size(), 1u);
+  EXPECT_EQ(fs::weakly_canonical(scene.objects[0].shape.file), fs::weakly_canonical(data));
+
+  BuildReport report;
+  const Model model = build_model(scene, test_options(), &report);
+  ASSERT_EQ(model.objects.size(), 2u);
+  EXPECT_EQ(model.objects[1].lesion, 0);
+  EXPECT_GT(model.objects[0].tree.leaf_count(), 1000u);
+  EXPECT_GT(model.objects[1].tree.leaf_count(), 10u);
+  // The lesion was snapped onto the crown's top.
+  EXPECT_GT(model.lesions[0].shape.center.z(), 58.0);
+  EXPECT_LT(model.lesions[0].shape.center.z(), 63.0);
+}
+
+}  // namespace
+}  // namespace cariesim
