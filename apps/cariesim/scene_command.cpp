@@ -30,7 +30,7 @@ void check_meshes(const SceneDesc& scene) {
     try {
       (void)load_mesh(o.shape.file, &report, options);
     } catch (const Error& e) {
-      throw Error(fmt::format("{}: objects '{}': {}", o.where.str(), o.name, e.what()));
+      throw Error(fmt::format("{}: object '{}': {}", o.where.str(), o.name, e.what()));
     }
     for (const auto& warning : report.warnings) {
       std::fprintf(stderr, "warning: %s: %s\n", o.shape.file.string().c_str(), warning.c_str());

@@ -15,7 +15,7 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-struct Run {
+struct Result {
   int status = -1;  // exit status
   std::string out;  // stdout
   std::string err;  // stderr
@@ -41,13 +41,13 @@ class CliTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   // Runs `cariesim ARGS` with the cache in the scratch folder; captures both streams.
-  Run run(const std::string& args) const {
+  Result run(const std::string& args) const {
     const fs::path out = dir_ / "stdout.txt";
     const fs::path err = dir_ / "stderr.txt";
     const std::string command = "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "' '" + CARIESIM_EXE + "' " +
                                 args + " >'" + out.string() + "' 2>'" + err.string() + "'";
     const int raw = std::system(command.c_str());
-    Run r;
+    Result r;
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
     r.out = read_text(out);
     r.err = read_text(err);
@@ -92,12 +92,12 @@ std::string cube_stl(double s) {
 }
 
 TEST_F(CliTest, SceneCheckAcceptsTheBuiltInsAndFiles) {
-  const Run builtin = run("scene check oral-cavity");
+  const Result builtin = run("scene check oral-cavity");
   EXPECT_EQ(builtin.status, 0) << builtin.err;
   EXPECT_THAT(builtin.out, HasSubstr("ok: oral-cavity"));
   EXPECT_THAT(builtin.out, HasSubstr("lesion1"));
 
-  const Run file = run("scene check '" + std::string(CARIESIM_SOURCE_DIR) + "/scenes/friction-block.yaml'");
+  const Result file = run("scene check '" + std::string(CARIESIM_SOURCE_DIR) + "/scenes/friction-block.yaml'");
   EXPECT_EQ(file.status, 0) << file.err;
   EXPECT_THAT(file.out, HasSubstr("ok: friction-block"));
 }
@@ -105,7 +105,7 @@ TEST_F(CliTest, SceneCheckAcceptsTheBuiltInsAndFiles) {
 TEST_F(CliTest, SceneCheckRejectsBadFilesWithLineAndColumn) {
   const std::string head = "objects:\n  - name: block\n    shape: {type: cuboid, size: [10, 20, 5]}\n";
   const fs::path wrong_type = write("wrong_type.yaml", head + "    pose: {position: 5}\n");
-  Run r = run("scene check '" + wrong_type.string() + "'");
+  Result r = run("scene check '" + wrong_type.string() + "'");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.err, HasSubstr("wrong_type.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
 
@@ -132,7 +132,7 @@ TEST_F(CliTest, SceneCheckRejectsBadFilesWithLineAndColumn) {
 TEST_F(CliTest, SceneCheckValidatesMeshContent) {
   write("empty.stl", "");
   const fs::path scene = write("scan.yaml", "objects:\n  - name: scan\n    shape: {type: mesh, file: empty.stl}\n");
-  const Run r = run("scene check '" + scene.string() + "'");
+  const Result r = run("scene check '" + scene.string() + "'");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.err, HasSubstr("scan.yaml:2:5: object 'scan'"));
   EXPECT_THAT(r.err, HasSubstr("empty.stl"));
@@ -140,7 +140,7 @@ TEST_F(CliTest, SceneCheckValidatesMeshContent) {
 
 TEST_F(CliTest, TreeJsonOnAMeshHasTheRequiredKeys) {
   const fs::path mesh = write("cube.stl", cube_stl(3.0));
-  const Run r = run("tree '" + mesh.string() + "' --json --quiet --tolerance 0.05");
+  const Result r = run("tree '" + mesh.string() + "' --json --quiet --tolerance 0.05");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << "--quiet prints no progress: " << r.err;
   const std::string checked = python_json(r.out, R"(
@@ -178,14 +178,14 @@ for p in d["parts"]:
     assert p["deviation_mm"]["max"] >= p["deviation_mm"]["p95"]
 print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
 )";
-  const Run first = run("tree '" + scene.string() + "' --json");
+  const Result first = run("tree '" + scene.string() + "' --json");
   ASSERT_EQ(first.status, 0) << first.err;
   EXPECT_FALSE(first.err.empty()) << "progress goes to stderr";
   EXPECT_THAT(python_json(first.out, check_parts), HasSubstr("cold"));
-  const Run second = run("tree '" + scene.string() + "' --json --quiet");
+  const Result second = run("tree '" + scene.string() + "' --json --quiet");
   ASSERT_EQ(second.status, 0) << second.err;
   EXPECT_THAT(python_json(second.out, check_parts), HasSubstr("hit"));
-  const Run text = run("tree '" + scene.string() + "' --quiet --no-cache");
+  const Result text = run("tree '" + scene.string() + "' --quiet --no-cache");
   ASSERT_EQ(text.status, 0) << text.err;
   EXPECT_THAT(text.out, HasSubstr("block/pit"));
   EXPECT_THAT(text.out, HasSubstr("deviation mm: p50"));
@@ -193,7 +193,7 @@ print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
 
 TEST_F(CliTest, TreeRejectsABadMesh) {
   const fs::path mesh = write("broken.stl", "solid x\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n");
-  const Run r = run("tree '" + mesh.string() + "' --quiet --no-cache");
+  const Result r = run("tree '" + mesh.string() + "' --quiet --no-cache");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.err, HasSubstr("broken.stl"));
 }

@@ -235,7 +235,7 @@ TEST(ParseSceneErrors, LesionProblems) {
   EXPECT_THAT(error_of(with_lesion(placement + shape + "    severity: moderate\n")),
               HasSubstr("lesions[0].severity: unknown severity 'moderate' (expected one of: mild, severe)"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "lesions:\n  - {name: l, object: tooth99}\n"),
-              HasSubstr("test.yaml:5:29: lesions[0].object: unknown object 'tooth99' (objects: block)"));
+              HasSubstr("test.yaml:5:23: lesions[0].object: unknown object 'tooth99' (objects: block)"));
   EXPECT_THAT(error_of(with_lesion(placement + "    shape: {type: star, size: 2, depth: 1}\n")),
               HasSubstr("lesions[0].shape.type: unknown lesion shape 'star'"));
   EXPECT_THAT(error_of(with_lesion(placement + "    shape: {type: disk, size: 2, width: 1, depth: 1}\n")),
@@ -258,7 +258,7 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
   EXPECT_THAT(error_of("objects:\n  - {name: a, shape: {type: cuboid, size: [10, -2, 5]}}\n"),
               HasSubstr("objects[0].shape.size: edge lengths must be > 0"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {mu_s: -0.1}\n"),
-              HasSubstr("test.yaml:4:23: objects[0].material.mu_s: -0.1 is out of range [0, 10]"));
+              HasSubstr("test.yaml:4:22: objects[0].material.mu_s: -0.1 is out of range [0, 10]"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {mu_d: .nan}\n"),
               HasSubstr("objects[0].material.mu_d: expected a number, got '.nan'"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {stiffness: soft}\n"),
@@ -267,7 +267,7 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
               HasSubstr("objects[0].material.stiffness: 0 is out of range: expected > 0"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 49\n"), HasSubstr("objects[0].fdi: 49 is out of range [11, 48]"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 30\n"), HasSubstr("objects[0].fdi: 30 is not an FDI tooth number"));
-  EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"), HasSubstr("servo_rate: 1e+09 is out of range"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"), HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 20000] Hz"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tree: {min_radius: 2, max_radius: 1}\n"),
               HasSubstr("objects[0].tree.min_radius: min_radius 2 mm exceeds max_radius 1 mm"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: gingiva\n    material: {stiffness: rigid}\n"),
@@ -280,9 +280,9 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
 
 TEST(ParseSceneErrors, SceneWideChecks) {
   EXPECT_THAT(error_of(std::string(kMinimal) + "  - {name: block, shape: {type: tongue}}\n"),
-              HasSubstr("test.yaml:4:11: objects[1].name: duplicate object name 'block'"));
+              HasSubstr("test.yaml:4:12: objects[1].name: duplicate object name 'block'"));
   EXPECT_THAT(error_of("objects:\n  - {name: a, fdi: 46, shape: {type: molar}}\n  - {name: b, fdi: 46, shape: {type: molar}}\n"),
-              HasSubstr("test.yaml:3:22: objects[1].fdi: tooth 46 appears twice"));
+              HasSubstr("test.yaml:3:20: objects[1].fdi: tooth 46 appears twice"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: enamel\n    tissue: dentin\n"),
               HasSubstr("test.yaml:5:5: objects[0].tissue: duplicate key"));
   EXPECT_THAT(error_of("objects: []\n"), HasSubstr("objects: a scene needs at least one object"));
@@ -302,7 +302,7 @@ TEST(ParseSceneErrors, SyntaxErrorsAreLocated) {
 TEST(ParseSceneErrors, MissingMeshFileIsNamed) {
   const std::string yaml = "objects:\n  - name: scan\n    shape: {type: mesh, file: nowhere/tooth.stl}\n";
   const std::string message = error_of(yaml, "/tmp/scenes/x.yaml");
-  EXPECT_THAT(message, HasSubstr("/tmp/scenes/x.yaml:3:32: objects[0].shape.file: mesh file not found: "
+  EXPECT_THAT(message, HasSubstr("/tmp/scenes/x.yaml:3:31: objects[0].shape.file: mesh file not found: "
                                  "/tmp/scenes/nowhere/tooth.stl"));
 }
 
