@@ -45,12 +45,12 @@ void print_summary(const SceneDesc& scene) {
               scene.objects.size() + scene.lesions.size());
   for (const ObjectDesc& o : scene.objects) {
     const std::string tooth = o.fdi != 0 ? fmt::format("FDI {}", o.fdi) : std::string("-");
-    const std::string tree =
-        o.tree.params.mode == TreeMode::Tight
-            ? fmt::format("tight {:g} mm", o.tree.params.tolerance)
-            : fmt::format("octree depth {}", o.tree.params.depth);
-    const std::string source =
-        o.shape.kind == ShapeDesc::Kind::Mesh ? o.shape.file.string() : std::string(shape_kind_name(o.shape.kind));
+    const std::string tree = o.tree.params.mode == TreeMode::Tight
+                                 ? fmt::format("tight {:g} mm", o.tree.params.tolerance)
+                                 : fmt::format("octree depth {}", o.tree.params.depth);
+    const std::string source = o.shape.kind == ShapeDesc::Kind::Mesh
+                                   ? o.shape.file.string()
+                                   : std::string(shape_kind_name(o.shape.kind));
     std::printf("  object %-16s %-8s %-9s %-5s %-10s %s, %s\n", o.name.c_str(), tooth.c_str(),
                 std::string(tissue_name(o.tissue)).c_str(), o.kind == ObjectKind::Rigid ? "rigid" : "soft",
                 stiffness_text(o.material.stiffness).c_str(), source.c_str(), tree.c_str());
@@ -58,14 +58,14 @@ void print_summary(const SceneDesc& scene) {
   for (const LesionDesc& l : scene.lesions) {
     const std::string& host = scene.objects[static_cast<std::size_t>(l.object)].name;
     std::printf("  lesion %-16s on %-12s %s %g mm, %g mm deep, %s, mu_s %g mu_d %g k_e %g N/mm F_p* %g N\n",
-                l.name.c_str(), host.c_str(), std::string(lesion_kind_name(l.shape.kind)).c_str(), l.shape.size,
-                l.shape.depth, l.severity.empty() ? "no preset" : l.severity.c_str(), l.material.mu_s,
-                l.material.mu_d, l.material.k_e, l.material.f_p_star);
+                l.name.c_str(), host.c_str(), std::string(lesion_kind_name(l.shape.kind)).c_str(),
+                l.shape.size, l.shape.depth, l.severity.empty() ? "no preset" : l.severity.c_str(),
+                l.material.mu_s, l.material.mu_d, l.material.k_e, l.material.f_p_star);
   }
   std::printf("  tool   explorer, tip radius %g mm\n", scene.tool.tip_radius);
   std::printf("  device max %g N, %g N/mm, %g N·mm; coupling %g N/mm, %g N·mm/rad; servo %g Hz\n",
-              scene.limits.max_force, scene.limits.max_stiffness, scene.limits.max_torque, scene.gains.k_trans,
-              scene.gains.k_rot, scene.servo_rate);
+              scene.limits.max_force, scene.limits.max_stiffness, scene.limits.max_torque,
+              scene.gains.k_trans, scene.gains.k_rot, scene.servo_rate);
 }
 
 }  // namespace

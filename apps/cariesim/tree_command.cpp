@@ -20,8 +20,8 @@ struct TreeArgs {
   std::string target = "oral-cavity";  // mesh file, scene file or built-in scene name
   std::string mode;                    // "", "tight" or "octree"
   std::optional<int> depth;
-  std::optional<double> tolerance;     // mm
-  std::size_t samples = 100000;        // surface samples per part
+  std::optional<double> tolerance;  // mm
+  std::size_t samples = 100000;     // surface samples per part
   bool json = false;
   bool quiet = false;
   bool no_cache = false;
@@ -31,7 +31,8 @@ struct TreeArgs {
 bool is_scene(const std::string& target) {
   if (!builtin_scene_yaml(target).empty()) return true;
   std::string ext = std::filesystem::path(target).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext == ".yaml" || ext == ".yml";
 }
 
@@ -98,12 +99,13 @@ std::string part_json(const PartReport& part, const Model& model) {
   std::string out = fmt::format(
       "{{\"name\": {}, \"mode\": \"{}\", \"leaves\": {}, \"levels\": {}, \"nodes_per_level\": [{}], "
       "\"build_seconds\": {}, \"cache_hit\": {}, \"lesion\": {}",
-      json_string(part.name), object.tree.mode == TreeMode::Tight ? "tight" : "octree", part.leaves, part.levels,
-      levels, json_number(part.build_seconds), part.cache_hit ? "true" : "false", object.lesion);
+      json_string(part.name), object.tree.mode == TreeMode::Tight ? "tight" : "octree", part.leaves,
+      part.levels, levels, json_number(part.build_seconds), part.cache_hit ? "true" : "false", object.lesion);
   if (part.deviation) {
     const Deviation& d = *part.deviation;
     out += fmt::format(
-        ", \"deviation_mm\": {{\"p50\": {}, \"p95\": {}, \"max\": {}, \"max_poke_out\": {}, \"max_fall_short\": {}, "
+        ", \"deviation_mm\": {{\"p50\": {}, \"p95\": {}, \"max\": {}, \"max_poke_out\": {}, "
+        "\"max_fall_short\": {}, "
         "\"samples\": {}}}",
         json_number(d.p50), json_number(d.p95), json_number(d.max), json_number(d.max_poke_out),
         json_number(d.max_fall_short), d.samples);
@@ -115,15 +117,16 @@ std::string part_json(const PartReport& part, const Model& model) {
 void print_part(const PartReport& part, const Model& model) {
   const CollisionObject& object = model.objects[static_cast<std::size_t>(part.object)];
   std::printf("%-24s %-6s leaves %7zu  levels %2d  build %7.3f s%s\n", part.name.c_str(),
-              object.tree.mode == TreeMode::Tight ? "tight" : "octree", part.leaves, part.levels, part.build_seconds,
-              part.cache_hit ? " (cache hit)" : "");
+              object.tree.mode == TreeMode::Tight ? "tight" : "octree", part.leaves, part.levels,
+              part.build_seconds, part.cache_hit ? " (cache hit)" : "");
   std::string levels;
   for (const std::size_t n : part.nodes_per_level) levels += fmt::format(" {}", n);
   std::printf("  nodes per level:%s\n", levels.c_str());
   if (part.deviation) {
     const Deviation& d = *part.deviation;
-    std::printf("  deviation mm: p50 %.4f  p95 %.4f  max %.4f  (poke-out %.4f, fall-short %.4f, %zu samples)\n", d.p50,
-                d.p95, d.max, d.max_poke_out, d.max_fall_short, d.samples);
+    std::printf(
+        "  deviation mm: p50 %.4f  p95 %.4f  max %.4f  (poke-out %.4f, fall-short %.4f, %zu samples)\n",
+        d.p50, d.p95, d.max, d.max_poke_out, d.max_fall_short, d.samples);
   }
 }
 
@@ -151,14 +154,15 @@ int run_tree(const TreeArgs& args) {
       return 0;
     }
     std::string parts;
-    for (const PartReport& part : report.parts) parts += (parts.empty() ? "\n    " : ",\n    ") + part_json(part, model);
+    for (const PartReport& part : report.parts)
+      parts += (parts.empty() ? "\n    " : ",\n    ") + part_json(part, model);
     std::printf("{\"scene\": %s, \"origin\": %s, \"build_seconds\": %s, \"parts\": [%s\n  ]}\n",
                 json_string(scene.name).c_str(), json_string(scene.origin).c_str(),
                 json_number(report.total_seconds).c_str(), parts.c_str());
     return 0;
   }
-  std::printf("%s: %zu parts, %zu materials, %zu lesions, built in %.3f s\n", scene.name.c_str(), report.parts.size(),
-              model.materials.size(), model.lesions.size(), report.total_seconds);
+  std::printf("%s: %zu parts, %zu materials, %zu lesions, built in %.3f s\n", scene.name.c_str(),
+              report.parts.size(), model.materials.size(), model.lesions.size(), report.total_seconds);
   for (const PartReport& part : report.parts) print_part(part, model);
   std::printf("tool: %zu spheres\n", model.tool.tree.leaf_count());
   return 0;
@@ -171,7 +175,8 @@ void register_tree(CLI::App& app, Registry& registry) {
   auto* tree = app.add_subcommand("tree", "Build sphere trees of a mesh or a scene and report them");
   tree->add_option("target", args->target, "a mesh file (STL/OBJ/PLY), a scene YAML file or a built-in scene")
       ->required();
-  tree->add_option("--mode", args->mode, "tree mode of every object")->check(CLI::IsMember({"tight", "octree"}));
+  tree->add_option("--mode", args->mode, "tree mode of every object")
+      ->check(CLI::IsMember({"tight", "octree"}));
   tree->add_option("--depth", args->depth, "octree depth (levels)")->check(CLI::Range(1, 7));
   tree->add_option("--tolerance", args->tolerance, "tight mode: target surface deviation, mm")
       ->check(CLI::Range(0.001, 10.0));

@@ -3,6 +3,8 @@
 // lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and materials. Then the tool,
 // gains, limits, and a check that the model is usable.
 
+#include "cariesim/spheretree/build.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -18,7 +20,6 @@
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 
@@ -39,8 +40,12 @@ double seconds_since(Clock::time_point start) {
 }
 
 // "file:line:column: objects 'name'" for messages about a scene entry.
-std::string object_context(const ObjectDesc& o) { return fmt::format("{}: object '{}'", o.where.str(), o.name); }
-std::string lesion_context(const LesionDesc& l) { return fmt::format("{}: lesion '{}'", l.where.str(), l.name); }
+std::string object_context(const ObjectDesc& o) {
+  return fmt::format("{}: object '{}'", o.where.str(), o.name);
+}
+std::string lesion_context(const LesionDesc& l) {
+  return fmt::format("{}: lesion '{}'", l.where.str(), l.name);
+}
 
 // The whole content of a file (mesh bytes for the cache key).
 std::string file_bytes(const std::filesystem::path& file) {
@@ -86,7 +91,10 @@ void add_geometry(BuildKey& key, const ObjectDesc& o) {
       key.add(s.size.x()).add(s.size.y()).add(s.size.z());
       break;
     case ShapeDesc::Kind::Molar:
-      key.add(s.molar.mesiodistal).add(s.molar.buccolingual).add(s.molar.crown_height).add(s.molar.root_length);
+      key.add(s.molar.mesiodistal)
+          .add(s.molar.buccolingual)
+          .add(s.molar.crown_height)
+          .add(s.molar.root_length);
       key.add(int64_t{s.molar.cusps}).add(int64_t{s.molar.roots}).add(s.molar.resolution);
       break;
     case ShapeDesc::Kind::Premolar:
@@ -115,7 +123,11 @@ void add_lesion(BuildKey& key, const LesionShape& s) {
 
 // Adds tree parameters and the level-set resolution to a key.
 void add_tree(BuildKey& key, const TreeParams& p, double voxel, double half_band) {
-  key.add(static_cast<int64_t>(p.mode)).add(int64_t{p.depth}).add(p.tolerance).add(p.max_radius).add(p.min_radius);
+  key.add(static_cast<int64_t>(p.mode))
+      .add(int64_t{p.depth})
+      .add(p.tolerance)
+      .add(p.max_radius)
+      .add(p.min_radius);
   key.add(int64_t{p.fill_interior}).add(static_cast<int64_t>(p.max_leaves)).add(int64_t{p.branching});
   key.add(voxel).add(half_band);
 }
@@ -149,9 +161,10 @@ LesionShape place_lesion(const SceneDesc& scene, const LesionDesc& l, const Tria
   if (!l.snap) return s;
   const std::optional<double> t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
   if (!t) {
-    throw Error(fmt::format("{}: the line through placement.at along the normal does not meet the surface of '{}' "
-                            "within snap_range {} mm",
-                            lesion_context(l), scene.objects[static_cast<std::size_t>(l.object)].name, l.snap_range));
+    throw Error(
+        fmt::format("{}: the line through placement.at along the normal does not meet the surface of '{}' "
+                    "within snap_range {} mm",
+                    lesion_context(l), scene.objects[static_cast<std::size_t>(l.object)].name, l.snap_range));
   }
   s.center += *t * s.normal;
   return s;
@@ -169,13 +182,13 @@ TreeParams effective_params(const ObjectDesc& o, const BuildOptions& options) {
 // The state of building one scene object's parts.
 struct ObjectBuild {
   const ObjectDesc* desc = nullptr;
-  TriangleMesh world_mesh;               // the object's surface in the world
-  std::vector<int> lesions;              // indices into SceneDesc::lesions
-  std::vector<LesionShape> shapes;       // their world shapes (snapped)
+  TriangleMesh world_mesh;          // the object's surface in the world
+  std::vector<int> lesions;         // indices into SceneDesc::lesions
+  std::vector<LesionShape> shapes;  // their world shapes (snapped)
   TreeParams params;
   LevelSetResolution resolution;
-  std::optional<LevelSet> object_ls;     // made on demand
-  std::vector<LevelSet> lesion_ls;       // made on demand
+  std::optional<LevelSet> object_ls;  // made on demand
+  std::vector<LevelSet> lesion_ls;    // made on demand
 };
 
 // Level sets of the object and its lesions (once).
@@ -183,7 +196,8 @@ void make_level_sets(ObjectBuild& b) {
   if (b.object_ls) return;
   try {
     b.object_ls = LevelSet::from_mesh(b.world_mesh, b.resolution.voxel, b.resolution.half_band);
-    for (const LesionShape& s : b.shapes) b.lesion_ls.push_back(s.to_level_set(b.resolution.voxel, b.resolution.half_band));
+    for (const LesionShape& s : b.shapes)
+      b.lesion_ls.push_back(s.to_level_set(b.resolution.voxel, b.resolution.half_band));
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}", object_context(*b.desc), e.what()));
   }
@@ -218,8 +232,9 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   Model model;
   model.scene_name = scene.name;
   const std::optional<TreeCache> cache =
-      options.use_cache ? std::optional<TreeCache>(options.cache_dir.empty() ? TreeCache() : TreeCache(options.cache_dir))
-                        : std::nullopt;
+      options.use_cache
+          ? std::optional<TreeCache>(options.cache_dir.empty() ? TreeCache() : TreeCache(options.cache_dir))
+          : std::nullopt;
   BuildReport local_report;
   BuildReport& out = report_out ? *report_out : local_report;
   out.parts.clear();
@@ -290,9 +305,12 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       const bool whole = b.lesions.empty();
       const std::string name =
           whole ? o.name
-                : fmt::format("{}/{}", o.name,
-                              part < 0 ? std::string("healthy")
-                                       : scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])].name);
+                : fmt::format(
+                      "{}/{}", o.name,
+                      part < 0
+                          ? std::string("healthy")
+                          : scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])]
+                                .name);
       report(options.progress, name, 0.0);
       BuildKey part_key(object_key);
       part_key.add(int64_t{part});
@@ -315,13 +333,16 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
         }
         if (built.tree.empty()) {
           if (part >= 0) {
-            const LesionDesc& l = scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+            const LesionDesc& l =
+                scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
             throw Error(fmt::format("{}: the lesion does not overlap '{}' (its caries part is empty)",
                                     lesion_context(l), o.name));
           }
-          throw Error(fmt::format("{}: {} is empty (do the lesions cover the whole object?)", object_context(o), name));
+          throw Error(fmt::format("{}: {} is empty (do the lesions cover the whole object?)",
+                                  object_context(o), name));
         }
-        classify_leaves(built.tree, *b.object_ls, b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution.voxel);
+        classify_leaves(built.tree, *b.object_ls,
+                        b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution.voxel);
         built.display = whole ? b.world_mesh : part_ls->to_mesh();
         if (cache) cache->store(part_key.value(), built);
         cached = std::move(built);
@@ -337,7 +358,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
           return dentin >= 0 && depth > thickness ? static_cast<uint16_t>(dentin) : enamel;
         });
       } else {
-        const uint16_t m = lesion_material[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+        const uint16_t m =
+            lesion_material[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
         assign_materials(tree, [m](const Vec3&, float) { return m; });
       }
       if (const std::string problem = check_tree(tree, 1e-3); !problem.empty()) {
@@ -385,7 +407,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       part_report.build_seconds = seconds_since(part_start);
       out.parts.push_back(std::move(part_report));
       report(options.progress, name, 1.0);
-      report(options.progress, "scene", static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
+      report(options.progress, "scene",
+             static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
     }
   }
 
@@ -417,8 +440,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   placed.place(model.tool_home, 0.0);
   const ClosestPair near = closest(placed, model.objects, kAllObjects, 0.0);
   if (near.gap < 0.0) {
-    throw Error(fmt::format("{}: tool.home: the tool at its home pose overlaps '{}' by {:.3f} mm", scene.origin,
-                            model.objects[near.object].name, -near.gap));
+    throw Error(fmt::format("{}: tool.home: the tool at its home pose overlaps '{}' by {:.3f} mm",
+                            scene.origin, model.objects[near.object].name, -near.gap));
   }
   out.total_seconds = seconds_since(start);
   return model;

@@ -24,13 +24,13 @@ using scene_detail::Reader;
 namespace {
 
 // Sanity bounds that keep every value physical and every build finite.
-constexpr double kMaxLength = 1000.0;      // mm, largest size of anything in a scene
-constexpr double kMaxCoordinate = 10000.0; // mm, largest |coordinate| of a position
-constexpr double kMinResolution = 0.02;    // mm, finest procedural mesh resolution
-constexpr double kMinVoxel = 0.005;        // mm, finest level-set voxel
-constexpr double kMaxStiffness = 1e6;      // N/mm
-constexpr double kMaxFriction = 10.0;      // friction coefficients
-constexpr int kMaxParts = 64;              // collision objects a model can hold (ObjectMask)
+constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a scene
+constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
+constexpr double kMinResolution = 0.02;     // mm, finest procedural mesh resolution
+constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
+constexpr double kMaxStiffness = 1e6;       // N/mm
+constexpr double kMaxFriction = 10.0;       // friction coefficients
+constexpr int kMaxParts = 64;               // collision objects a model can hold (ObjectMask)
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
@@ -58,7 +58,9 @@ Pose read_pose(const Reader& r, const YAML::Node& node, const std::string& path)
 }
 
 // Procedural mesh resolution (mm).
-void read_resolution(const Fields& f, double& out) { f.number_in("resolution", out, kMinResolution, 5.0, "mm"); }
+void read_resolution(const Fields& f, double& out) {
+  f.number_in("resolution", out, kMinResolution, 5.0, "mm");
+}
 
 // An object's `shape`: {type: mesh|cuboid|molar|premolar|gingiva|tongue, ...parameters}.
 ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string& path,
@@ -174,23 +176,27 @@ TreeDesc read_tree(const Reader& r, const YAML::Node& node, const std::string& p
                   "fill_interior", "branching"});
   if (const auto n = f.get("mode"); n.IsDefined()) {
     t.params.mode = r.choice(n, f.sub("mode"), "tree mode", {"tight", "octree"}) == 0 ? TreeMode::Tight
-                                                                                       : TreeMode::Octree;
+                                                                                      : TreeMode::Octree;
   }
-  if (const auto n = f.get("depth"); n.IsDefined()) t.params.depth = static_cast<int>(r.integer_in(n, f.sub("depth"), 1, 7));
+  if (const auto n = f.get("depth"); n.IsDefined())
+    t.params.depth = static_cast<int>(r.integer_in(n, f.sub("depth"), 1, 7));
   f.positive("tolerance", t.params.tolerance, 10.0, "mm");
   f.positive("max_radius", t.params.max_radius, 100.0, "mm");
   f.positive("min_radius", t.params.min_radius, 100.0, "mm");
-  if (const auto n = f.get("voxel"); n.IsDefined()) t.voxel = r.number_in(n, f.sub("voxel"), kMinVoxel, 10.0, "mm");
+  if (const auto n = f.get("voxel"); n.IsDefined())
+    t.voxel = r.number_in(n, f.sub("voxel"), kMinVoxel, 10.0, "mm");
   if (const auto n = f.get("max_leaves"); n.IsDefined()) {
     t.params.max_leaves = static_cast<std::size_t>(r.integer_in(n, f.sub("max_leaves"), 1, 2000000));
   }
-  if (const auto n = f.get("fill_interior"); n.IsDefined()) t.params.fill_interior = r.boolean(n, f.sub("fill_interior"));
+  if (const auto n = f.get("fill_interior"); n.IsDefined())
+    t.params.fill_interior = r.boolean(n, f.sub("fill_interior"));
   if (const auto n = f.get("branching"); n.IsDefined()) {
     t.params.branching = static_cast<int>(r.integer_in(n, f.sub("branching"), 2, 8));
   }
   if (t.params.min_radius > t.params.max_radius) {
-    r.fail(f.has("min_radius") ? f.get("min_radius") : node, f.sub("min_radius"),
-           fmt::format("min_radius {} mm exceeds max_radius {} mm", t.params.min_radius, t.params.max_radius));
+    r.fail(
+        f.has("min_radius") ? f.get("min_radius") : node, f.sub("min_radius"),
+        fmt::format("min_radius {} mm exceeds max_radius {} mm", t.params.min_radius, t.params.max_radius));
   }
   return t;
 }
@@ -234,17 +240,21 @@ ObjectDesc read_object(const Reader& r, const YAML::Node& node, const std::strin
 
   // Tissue first: it sets the defaults of kind and material.
   if (const auto n = f.get("tissue"); n.IsDefined()) {
-    const std::size_t t = r.choice(n, f.sub("tissue"), "tissue", {"enamel", "dentin", "gingiva", "tongue", "generic"});
-    constexpr Tissue kTissues[] = {Tissue::Enamel, Tissue::Dentin, Tissue::Gingiva, Tissue::Tongue, Tissue::Generic};
+    const std::size_t t =
+        r.choice(n, f.sub("tissue"), "tissue", {"enamel", "dentin", "gingiva", "tongue", "generic"});
+    constexpr Tissue kTissues[] = {Tissue::Enamel, Tissue::Dentin, Tissue::Gingiva, Tissue::Tongue,
+                                   Tissue::Generic};
     o.tissue = kTissues[t];
   }
   apply_tissue_defaults(o);
   if (const auto n = f.get("kind"); n.IsDefined()) {
-    o.kind = r.choice(n, f.sub("kind"), "kind", {"rigid", "soft"}) == 0 ? ObjectKind::Rigid : ObjectKind::Soft;
+    o.kind =
+        r.choice(n, f.sub("kind"), "kind", {"rigid", "soft"}) == 0 ? ObjectKind::Rigid : ObjectKind::Soft;
   }
   if (const auto n = f.get("material"); n.IsDefined()) {
     const Fields m(r, n, f.sub("material"), {"stiffness", "mu_s", "mu_d"});
-    if (const auto s = m.get("stiffness"); s.IsDefined()) o.material.stiffness = read_stiffness(r, s, m.sub("stiffness"));
+    if (const auto s = m.get("stiffness"); s.IsDefined())
+      o.material.stiffness = read_stiffness(r, s, m.sub("stiffness"));
     m.number_in("mu_s", o.material.mu_s, 0.0, kMaxFriction, "");
     m.number_in("mu_d", o.material.mu_d, 0.0, kMaxFriction, "");
   }
@@ -263,13 +273,13 @@ ObjectDesc read_object(const Reader& r, const YAML::Node& node, const std::strin
 // A lesion's `shape`: {type, size, width, depth, points} per LesionShape.
 void read_lesion_shape(const Reader& r, const YAML::Node& node, const std::string& path, LesionShape& s) {
   const Fields head(r, node, path, {"type", "size", "width", "depth", "points"});
-  const std::size_t type = r.choice(head.require("type"), head.sub("type"), "lesion shape",
-                                    {"disk", "circle", "stripe", "square", "triangle", "polygon", "inverted-cone",
-                                     "ellipsoid"});
-  constexpr LesionShape::Kind kKinds[] = {
-      LesionShape::Kind::Disk,    LesionShape::Kind::Disk,         LesionShape::Kind::Stripe,
-      LesionShape::Kind::Polygon, LesionShape::Kind::Polygon,      LesionShape::Kind::Polygon,
-      LesionShape::Kind::InvertedCone, LesionShape::Kind::Ellipsoid};
+  const std::size_t type =
+      r.choice(head.require("type"), head.sub("type"), "lesion shape",
+               {"disk", "circle", "stripe", "square", "triangle", "polygon", "inverted-cone", "ellipsoid"});
+  constexpr LesionShape::Kind kKinds[] = {LesionShape::Kind::Disk,         LesionShape::Kind::Disk,
+                                          LesionShape::Kind::Stripe,       LesionShape::Kind::Polygon,
+                                          LesionShape::Kind::Polygon,      LesionShape::Kind::Polygon,
+                                          LesionShape::Kind::InvertedCone, LesionShape::Kind::Ellipsoid};
   s.kind = kKinds[type];
   const bool has_width = s.kind == LesionShape::Kind::Stripe || s.kind == LesionShape::Kind::Ellipsoid;
   const bool is_polygon = type == 5;
@@ -287,7 +297,8 @@ void read_lesion_shape(const Reader& r, const YAML::Node& node, const std::strin
     s.polygon.clear();
     for (std::size_t i = 0; i < points.size(); ++i) {
       const Eigen::Vector2d p = r.vec2(points[i], indexed(f.sub("points"), i));
-      if (p.cwiseAbs().maxCoeff() > kMaxLength) r.fail(points[i], indexed(f.sub("points"), i), "point too far");
+      if (p.cwiseAbs().maxCoeff() > kMaxLength)
+        r.fail(points[i], indexed(f.sub("points"), i), "point too far");
       s.polygon.push_back(p);
     }
     double area = 0.0;
@@ -359,13 +370,15 @@ KcProfile read_kc(const Reader& r, const YAML::Node& node, const std::string& pa
 
 // A lesion's material: preset (severity) plus overrides.
 void read_lesion_material(const Reader& r, const YAML::Node& node, const std::string& path, LesionDesc& l) {
-  const Fields f(r, node, path,
-                 {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "f_p_star", "f_e_star", "k_theta"});
+  const Fields f(
+      r, node, path,
+      {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "f_p_star", "f_e_star", "k_theta"});
   Material& m = l.material;
   // The sliding contact stiffness follows k_e unless it is given.
   f.positive("k_e", m.k_e, kMaxStiffness, "N/mm");
   m.stiffness = m.k_e;
-  if (const auto n = f.get("stiffness"); n.IsDefined()) m.stiffness = read_stiffness(r, n, f.sub("stiffness"));
+  if (const auto n = f.get("stiffness"); n.IsDefined())
+    m.stiffness = read_stiffness(r, n, f.sub("stiffness"));
   f.number_in("mu_s", m.mu_s, 0.0, kMaxFriction, "");
   f.number_in("mu_d", m.mu_d, 0.0, kMaxFriction, "");
   if (const auto n = f.get("anisotropic"); n.IsDefined()) {
@@ -381,7 +394,8 @@ void read_lesion_material(const Reader& r, const YAML::Node& node, const std::st
 }
 
 // One entry of `lesions` (objects are already known).
-LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::string& path, const SceneDesc& scene) {
+LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::string& path,
+                       const SceneDesc& scene) {
   const Fields f(r, node, path, {"name", "object", "placement", "shape", "severity", "material"});
   LesionDesc l;
   l.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
@@ -404,7 +418,8 @@ LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::strin
 
   // Shape, then placement (the shape's depth sets the default gradient depth of k_c).
   read_lesion_shape(r, f.require("shape"), f.sub("shape"), l.shape);
-  const Fields p(r, f.require("placement"), f.sub("placement"), {"at", "normal", "tangent", "frame", "snap", "snap_range"});
+  const Fields p(r, f.require("placement"), f.sub("placement"),
+                 {"at", "normal", "tangent", "frame", "snap", "snap_range"});
   l.shape.center = read_position(r, p.require("at"), p.sub("at"));
   l.shape.normal = r.direction(p.require("normal"), p.sub("normal"));
   if (const auto n = p.get("tangent"); n.IsDefined()) {
@@ -440,8 +455,8 @@ LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::strin
 // The `tool` section: explorer parameters and the home pose.
 void read_tool(const Reader& r, const YAML::Node& node, const std::string& path, SceneDesc& scene) {
   const Fields f(r, node, path,
-                 {"tip_radius", "tip_segment", "working_end_radius", "bend_radius", "bend_angle", "shank_length",
-                  "shank_radius", "handle_length", "handle_radius", "max_gap", "home"});
+                 {"tip_radius", "tip_segment", "working_end_radius", "bend_radius", "bend_angle",
+                  "shank_length", "shank_radius", "handle_length", "handle_radius", "max_gap", "home"});
   ExplorerParams& t = scene.tool;
   f.number_in("tip_radius", t.tip_radius, 0.005, 2.0, "mm");
   f.positive("tip_segment", t.tip_segment, 50.0, "mm");
@@ -464,7 +479,8 @@ void read_tool(const Reader& r, const YAML::Node& node, const std::string& path,
 
 // The `device` section: limits of the haptic device.
 void read_device(const Reader& r, const YAML::Node& node, const std::string& path, DeviceLimits& d) {
-  const Fields f(r, node, path, {"max_force", "max_stiffness", "max_torque", "position_resolution", "workspace"});
+  const Fields f(r, node, path,
+                 {"max_force", "max_stiffness", "max_torque", "position_resolution", "workspace"});
   f.positive("max_force", d.max_force, 1000.0, "N");
   f.positive("max_stiffness", d.max_stiffness, 1000.0, "N/mm");
   f.positive("max_torque", d.max_torque, 1e5, "N·mm");
@@ -473,7 +489,8 @@ void read_device(const Reader& r, const YAML::Node& node, const std::string& pat
     const Fields w(r, n, f.sub("workspace"), {"min", "max"});
     const Vec3 lo = read_position(r, w.require("min"), w.sub("min"));
     const Vec3 hi = read_position(r, w.require("max"), w.sub("max"));
-    if (!(lo.array() < hi.array()).all()) r.fail(n, f.sub("workspace"), "min must be below max on every axis");
+    if (!(lo.array() < hi.array()).all())
+      r.fail(n, f.sub("workspace"), "min must be below max on every axis");
     d.workspace = Eigen::AlignedBox3d(lo, hi);
   }
 }
@@ -486,7 +503,8 @@ void check_scene(const Reader& r, const YAML::Node& root, SceneDesc& scene) {
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& o = scene.objects[i];
     if (!names.insert(o.name).second) {
-      r.fail(objects[i]["name"], indexed("objects", i) + ".name", fmt::format("duplicate object name '{}'", o.name));
+      r.fail(objects[i]["name"], indexed("objects", i) + ".name",
+             fmt::format("duplicate object name '{}'", o.name));
     }
     if (o.fdi != 0 && !teeth.insert(o.fdi).second) {
       r.fail(objects[i]["fdi"], indexed("objects", i) + ".fdi", fmt::format("tooth {} appears twice", o.fdi));
@@ -563,8 +581,9 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
   }
 
   try {
-    const Fields f(r, root, "", {"name", "description", "format", "objects", "lesions", "tool", "device", "coupling",
-                                 "servo_rate"});
+    const Fields f(
+        r, root, "",
+        {"name", "description", "format", "objects", "lesions", "tool", "device", "coupling", "servo_rate"});
     if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, "format", 1, 1);
     scene.name = f.has("name") ? r.text(f.get("name"), "name") : origin.stem().string();
     if (const auto n = f.get("description"); n.IsDefined()) scene.description = r.text(n, "description");
@@ -606,7 +625,8 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
 
 SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(mesh, ec)) throw Error(fmt::format("{}: no such mesh file", mesh.string()));
+  if (!std::filesystem::is_regular_file(mesh, ec))
+    throw Error(fmt::format("{}: no such mesh file", mesh.string()));
   SceneDesc scene;
   scene.name = mesh.stem().string();
   scene.origin = mesh.string();

@@ -44,8 +44,8 @@ class CliTest : public ::testing::Test {
   Result run(const std::string& args) const {
     const fs::path out = dir_ / "stdout.txt";
     const fs::path err = dir_ / "stderr.txt";
-    const std::string command = "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "' '" + CARIESIM_EXE + "' " +
-                                args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+    const std::string command = "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "' '" + CARIESIM_EXE +
+                                "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
     const int raw = std::system(command.c_str());
     Result r;
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -77,7 +77,8 @@ class CliTest : public ::testing::Test {
 
 // A closed cube of side `s` mm as ASCII STL (12 outward triangles).
 std::string cube_stl(double s) {
-  const double v[8][3] = {{0, 0, 0}, {s, 0, 0}, {s, s, 0}, {0, s, 0}, {0, 0, s}, {s, 0, s}, {s, s, s}, {0, s, s}};
+  const double v[8][3] = {{0, 0, 0}, {s, 0, 0}, {s, s, 0}, {0, s, 0},
+                          {0, 0, s}, {s, 0, s}, {s, s, s}, {0, s, s}};
   const int f[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
                         {1, 2, 6}, {1, 6, 5}, {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
   std::ostringstream out;
@@ -97,7 +98,8 @@ TEST_F(CliTest, SceneCheckAcceptsTheBuiltInsAndFiles) {
   EXPECT_THAT(builtin.out, HasSubstr("ok: oral-cavity"));
   EXPECT_THAT(builtin.out, HasSubstr("lesion1"));
 
-  const Result file = run("scene check '" + std::string(CARIESIM_SOURCE_DIR) + "/scenes/friction-block.yaml'");
+  const Result file =
+      run("scene check '" + std::string(CARIESIM_SOURCE_DIR) + "/scenes/friction-block.yaml'");
   EXPECT_EQ(file.status, 0) << file.err;
   EXPECT_THAT(file.out, HasSubstr("ok: friction-block"));
 }
@@ -107,7 +109,8 @@ TEST_F(CliTest, SceneCheckRejectsBadFilesWithLineAndColumn) {
   const fs::path wrong_type = write("wrong_type.yaml", head + "    pose: {position: 5}\n");
   Result r = run("scene check '" + wrong_type.string() + "'");
   EXPECT_NE(r.status, 0);
-  EXPECT_THAT(r.err, HasSubstr("wrong_type.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
+  EXPECT_THAT(r.err,
+              HasSubstr("wrong_type.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
 
   const fs::path missing = write("missing.yaml", "objects:\n  - name: block\n");
   r = run("scene check '" + missing.string() + "'");
@@ -131,7 +134,8 @@ TEST_F(CliTest, SceneCheckRejectsBadFilesWithLineAndColumn) {
 
 TEST_F(CliTest, SceneCheckValidatesMeshContent) {
   write("empty.stl", "");
-  const fs::path scene = write("scan.yaml", "objects:\n  - name: scan\n    shape: {type: mesh, file: empty.stl}\n");
+  const fs::path scene =
+      write("scan.yaml", "objects:\n  - name: scan\n    shape: {type: mesh, file: empty.stl}\n");
   const Result r = run("scene check '" + scene.string() + "'");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.err, HasSubstr("scan.yaml:2:5: object 'scan'"));

@@ -44,7 +44,8 @@ class BuildTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    cache_ = fs::temp_directory_path() / ("cariesim_build_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    cache_ = fs::temp_directory_path() /
+             ("cariesim_build_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
     fs::remove_all(cache_);
   }
   void TearDown() override { fs::remove_all(cache_); }
@@ -66,7 +67,8 @@ double gap_to_leaves(const SphereTree& tree, const Vec3& p) {
 }
 
 TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
-  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 0.7], normal: [0, 0, 1], snap_range: 2}"), "b.yaml");
+  const SceneDesc scene =
+      parse_scene(block_scene("{at: [0, 0, 0.7], normal: [0, 0, 1], snap_range: 2}"), "b.yaml");
   BuildReport report;
   const Model model = build_model(scene, options(), &report);
 
@@ -205,7 +207,8 @@ TEST_F(BuildTest, ALesionThatMissesItsObjectIsAnError) {
 }
 
 TEST_F(BuildTest, SnappingWithNoSurfaceInRangeIsAnError) {
-  const SceneDesc scene = parse_scene(block_scene("{at: [0, 0, 9], normal: [0, 0, 1], snap_range: 2}"), "far.yaml");
+  const SceneDesc scene =
+      parse_scene(block_scene("{at: [0, 0, 9], normal: [0, 0, 1], snap_range: 2}"), "far.yaml");
   try {
     (void)build_model(scene, options());
     FAIL() << "expected an error";
@@ -216,8 +219,8 @@ TEST_F(BuildTest, SnappingWithNoSurfaceInRangeIsAnError) {
 }
 
 TEST_F(BuildTest, AToolHomeInsideAnObjectIsAnError) {
-  const SceneDesc scene =
-      parse_scene(block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}", "tool: {home: {position: [1, 2, 1]}}\n"), "h.yaml");
+  const SceneDesc scene = parse_scene(
+      block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}", "tool: {home: {position: [1, 2, 1]}}\n"), "h.yaml");
   try {
     (void)build_model(scene, options());
     FAIL() << "expected an error";
@@ -240,7 +243,8 @@ TEST_F(BuildTest, CommandLineOverridesChangeTheTrees) {
 
 TEST(MeshScene, WrapsAMeshFile) {
   EXPECT_THROW((void)mesh_scene("/no/such/file.stl"), Error);
-  const fs::path file = fs::temp_directory_path() / ("cariesim_mesh_scene_" + std::to_string(::getpid()) + ".stl");
+  const fs::path file =
+      fs::temp_directory_path() / ("cariesim_mesh_scene_" + std::to_string(::getpid()) + ".stl");
   std::ofstream(file) << "solid x\nendsolid x\n";
   const SceneDesc s = mesh_scene(file);
   ASSERT_EQ(s.objects.size(), 1u);

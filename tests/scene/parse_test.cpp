@@ -1,13 +1,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <string>
-
-#include <unistd.h>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -169,7 +168,8 @@ servo_rate: 2000
 }
 
 TEST(ParseScene, LesionShapeInWorldFollowsTheHostPose) {
-  const std::string yaml = std::string(kMinimal) + R"(    pose: {position: [5, 0, 0], rotation: {axis: [0, 0, 1], angle: 90}}
+  const std::string yaml =
+      std::string(kMinimal) + R"(    pose: {position: [5, 0, 0], rotation: {axis: [0, 0, 1], angle: 90}}
 lesions:
   - name: l
     object: block
@@ -185,7 +185,8 @@ lesions:
 TEST(ParseSceneErrors, WrongTypeNamesTheFieldAndPosition) {
   const std::string yaml = std::string(kMinimal) + "    pose: {position: 5}\n";
   const std::string message = error_of(yaml);
-  EXPECT_THAT(message, HasSubstr("test.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
+  EXPECT_THAT(message,
+              HasSubstr("test.yaml:4:22: objects[0].pose.position: expected a sequence of 3 numbers"));
 }
 
 TEST(ParseSceneErrors, WrongTypeInsideASequence) {
@@ -193,7 +194,8 @@ TEST(ParseSceneErrors, WrongTypeInsideASequence) {
   - name: block
     shape: {type: cuboid, size: [10, twenty, 5]}
 )";
-  EXPECT_THAT(error_of(yaml), HasSubstr("test.yaml:3:38: objects[0].shape.size[1]: expected a number, got 'twenty'"));
+  EXPECT_THAT(error_of(yaml),
+              HasSubstr("test.yaml:3:38: objects[0].shape.size[1]: expected a number, got 'twenty'"));
 }
 
 TEST(ParseSceneErrors, MissingRequiredField) {
@@ -210,12 +212,14 @@ TEST(ParseSceneErrors, UnknownKeyIsATypo) {
   const std::string message = error_of(yaml);
   EXPECT_THAT(message, HasSubstr("test.yaml:4:12: objects[0].pose.postion: unknown key"));
   EXPECT_THAT(message, HasSubstr("did you mean 'position'?"));
-  EXPECT_THAT(error_of(std::string(kMinimal) + "colour: red\n"), HasSubstr("test.yaml:4:1: colour: unknown key"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "colour: red\n"),
+              HasSubstr("test.yaml:4:1: colour: unknown key"));
 }
 
 TEST(ParseSceneErrors, BadEnumValues) {
-  EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: bone\n"),
-              HasSubstr("test.yaml:4:13: objects[0].tissue: unknown tissue 'bone' (expected one of: enamel,"));
+  EXPECT_THAT(
+      error_of(std::string(kMinimal) + "    tissue: bone\n"),
+      HasSubstr("test.yaml:4:13: objects[0].tissue: unknown tissue 'bone' (expected one of: enamel,"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    kind: squishy\n"),
               HasSubstr("test.yaml:4:11: objects[0].kind: unknown kind 'squishy'"));
   EXPECT_THAT(error_of("objects:\n  - {name: a, shape: {type: sphere}}\n"),
@@ -242,15 +246,20 @@ TEST(ParseSceneErrors, LesionProblems) {
               HasSubstr("lesions[0].shape.width: unknown key"));
   EXPECT_THAT(error_of(with_lesion("    placement: {at: [0, 0, 0], normal: [0, 0, 0]}\n" + shape)),
               HasSubstr("lesions[0].placement.normal: expected a non-zero direction"));
-  EXPECT_THAT(error_of(with_lesion("    placement: {at: [0, 0, 0], normal: [0, 0, 1], tangent: [0, 0, 2]}\n" + shape)),
+  EXPECT_THAT(error_of(with_lesion("    placement: {at: [0, 0, 0], normal: [0, 0, 1], tangent: [0, 0, 2]}\n" +
+                                   shape)),
               HasSubstr("lesions[0].placement.tangent: must not be parallel to the normal"));
-  EXPECT_THAT(error_of(with_lesion(placement + shape + "    material: {k_c: {layers: [{to: 2, k_c: 1}, {to: 1, k_c: 1}]}}\n")),
+  EXPECT_THAT(error_of(with_lesion(placement + shape +
+                                   "    material: {k_c: {layers: [{to: 2, k_c: 1}, {to: 1, k_c: 1}]}}\n")),
               HasSubstr("lesions[0].material.k_c.layers[1].to: must be deeper than the layer above"));
-  EXPECT_THAT(error_of(with_lesion(placement + shape + "    material: {k_c: {layers: [], gradient: {top: 1, bottom: 2}}}\n")),
+  EXPECT_THAT(error_of(with_lesion(placement + shape +
+                                   "    material: {k_c: {layers: [], gradient: {top: 1, bottom: 2}}}\n")),
               HasSubstr("lesions[0].material.k_c: expected a number (N/mm), or exactly one of"));
-  EXPECT_THAT(error_of(with_lesion(placement + shape + "    material: {anisotropic: {direction: [1, 0, 0], mu_s: 0.5}}\n")),
+  EXPECT_THAT(error_of(with_lesion(placement + shape +
+                                   "    material: {anisotropic: {direction: [1, 0, 0], mu_s: 0.5}}\n")),
               HasSubstr("lesions[0].material.anisotropic.mu_d: missing required field"));
-  EXPECT_THAT(error_of(with_lesion(placement + "    shape: {type: polygon, points: [[0, 0], [1, 1], [2, 2]], depth: 1}\n")),
+  EXPECT_THAT(error_of(with_lesion(
+                  placement + "    shape: {type: polygon, points: [[0, 0], [1, 1], [2, 2]], depth: 1}\n")),
               HasSubstr("lesions[0].shape.points: the polygon has no area"));
 }
 
@@ -265,9 +274,12 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
               HasSubstr("objects[0].material.stiffness: expected a number (N/mm) or 'rigid', got 'soft'"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {stiffness: 0}\n"),
               HasSubstr("objects[0].material.stiffness: 0 is out of range: expected > 0"));
-  EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 49\n"), HasSubstr("objects[0].fdi: 49 is out of range [11, 48]"));
-  EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 30\n"), HasSubstr("objects[0].fdi: 30 is not an FDI tooth number"));
-  EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"), HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 20000] Hz"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 49\n"),
+              HasSubstr("objects[0].fdi: 49 is out of range [11, 48]"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 30\n"),
+              HasSubstr("objects[0].fdi: 30 is not an FDI tooth number"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"),
+              HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 20000] Hz"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tree: {min_radius: 2, max_radius: 1}\n"),
               HasSubstr("objects[0].tree.min_radius: min_radius 2 mm exceeds max_radius 1 mm"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: gingiva\n    material: {stiffness: rigid}\n"),
@@ -281,12 +293,14 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
 TEST(ParseSceneErrors, SceneWideChecks) {
   EXPECT_THAT(error_of(std::string(kMinimal) + "  - {name: block, shape: {type: tongue}}\n"),
               HasSubstr("test.yaml:4:12: objects[1].name: duplicate object name 'block'"));
-  EXPECT_THAT(error_of("objects:\n  - {name: a, fdi: 46, shape: {type: molar}}\n  - {name: b, fdi: 46, shape: {type: molar}}\n"),
+  EXPECT_THAT(error_of("objects:\n  - {name: a, fdi: 46, shape: {type: molar}}\n  - {name: b, fdi: 46, "
+                       "shape: {type: molar}}\n"),
               HasSubstr("test.yaml:3:20: objects[1].fdi: tooth 46 appears twice"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: enamel\n    tissue: dentin\n"),
               HasSubstr("test.yaml:5:5: objects[0].tissue: duplicate key"));
   EXPECT_THAT(error_of("objects: []\n"), HasSubstr("objects: a scene needs at least one object"));
-  EXPECT_THAT(error_of("objects:\n  - {name: g, shape: {type: tongue}, tissue: tongue}\nlesions:\n  - {name: l, object: g}\n"),
+  EXPECT_THAT(error_of("objects:\n  - {name: g, shape: {type: tongue}, tissue: tongue}\nlesions:\n  - {name: "
+                       "l, object: g}\n"),
               HasSubstr("lesions[0].object: 'g' is soft; lesions need a rigid host"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "format: 2\n"), HasSubstr("format: 2 is out of range [1, 1]"));
 }
@@ -311,7 +325,8 @@ TEST(ParseScene, MeshPathIsRelativeToTheSceneFile) {
       std::filesystem::temp_directory_path() / ("cariesim_parse_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir / "meshes");
   std::ofstream(dir / "meshes" / "part.stl") << "solid empty\nendsolid empty\n";
-  std::ofstream(dir / "scene.yaml") << "objects:\n  - name: scan\n    shape: {type: mesh, file: meshes/part.stl, scale: 2}\n";
+  std::ofstream(dir / "scene.yaml")
+      << "objects:\n  - name: scan\n    shape: {type: mesh, file: meshes/part.stl, scale: 2}\n";
   const SceneDesc s = load_scene((dir / "scene.yaml").string());
   EXPECT_EQ(s.objects[0].shape.file, (dir / "meshes" / "part.stl").lexically_normal());
   EXPECT_DOUBLE_EQ(s.objects[0].shape.scale, 2.0);

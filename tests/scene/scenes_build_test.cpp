@@ -107,13 +107,15 @@ TEST_F(OralCavity, InterproximalGapIsProbeSized) {
   const Model& m = *model_;
   const int tooth45 = object_named(m, "tooth45");
   ASSERT_GE(tooth45, 0);
-  const double gap = gap_to_leaves(m.objects[static_cast<std::size_t>(tooth45)].tree, m.lesions[1].shape.center);
+  const double gap =
+      gap_to_leaves(m.objects[static_cast<std::size_t>(tooth45)].tree, m.lesions[1].shape.center);
   EXPECT_GT(gap, 1.3);
   EXPECT_LT(gap, 2.3);
   // The neighbouring teeth, and the tongue and the teeth, do not touch.
   EXPECT_GT(gap_between(m, object_named(m, "tooth46/healthy"), tooth45), 0.3);
   EXPECT_GT(gap_between(m, object_named(m, "tooth36/healthy"), object_named(m, "tooth35")), 0.1);
-  for (const char* tooth : {"tooth46/healthy", "tooth45", "tooth47", "tooth36/healthy", "tooth35", "tooth37"}) {
+  for (const char* tooth :
+       {"tooth46/healthy", "tooth45", "tooth47", "tooth36/healthy", "tooth35", "tooth37"}) {
     EXPECT_GT(gap_between(m, object_named(m, "tongue"), object_named(m, tooth)), 0.5) << tooth;
   }
 }
@@ -125,9 +127,10 @@ TEST(ExampleScenes, RealToothScanBuilds) {
   // From its place in the checkout when the data sits beside it; else as if the checkout did.
   const fs::path file = fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml";
   const fs::path beside = file.parent_path() / "../../../shared/data/open-full-jaw/patient26/tooth_30.stl";
-  const fs::path origin = fs::exists(beside) ? file
-                                             : fs::path(CARIESIM_SHARED_DATA_DIR).parent_path().parent_path() /
-                                                   "checkout" / "scenes" / "examples" / "real-tooth.yaml";
+  const fs::path origin = fs::exists(beside)
+                              ? file
+                              : fs::path(CARIESIM_SHARED_DATA_DIR).parent_path().parent_path() / "checkout" /
+                                    "scenes" / "examples" / "real-tooth.yaml";
   std::ifstream in(file, std::ios::binary);
   const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   const SceneDesc scene = parse_scene(text, origin);

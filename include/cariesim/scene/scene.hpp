@@ -33,32 +33,32 @@ std::string_view builtin_scene_yaml(std::string_view name);
 SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree = {});
 
 struct BuildOptions {
-  bool use_cache = true;                 ///< read and write the tree cache
-  std::filesystem::path cache_dir;       ///< empty: TreeCache::default_dir()
-  std::optional<TreeMode> mode;          ///< overrides every object's tree mode
-  std::optional<int> octree_depth;       ///< overrides the octree depth
-  std::optional<double> tolerance;       ///< mm, overrides the tight tolerance
-  bool measure_deviation = false;        ///< measure every part's surface deviation (slow)
+  bool use_cache = true;                   ///< read and write the tree cache
+  std::filesystem::path cache_dir;         ///< empty: TreeCache::default_dir()
+  std::optional<TreeMode> mode;            ///< overrides every object's tree mode
+  std::optional<int> octree_depth;         ///< overrides the octree depth
+  std::optional<double> tolerance;         ///< mm, overrides the tight tolerance
+  bool measure_deviation = false;          ///< measure every part's surface deviation (slow)
   std::size_t deviation_samples = 100000;  ///< surface samples per part when measuring
-  ProgressFn progress;                   ///< long builds report here
+  ProgressFn progress;                     ///< long builds report here
 };
 
 /// What building one collision part took (`cariesim tree`, benchmarks).
 struct PartReport {
-  std::string name;                      ///< e.g. "tooth46/healthy", "tooth46/lesion1"
-  int object = -1;                       ///< index into Model::objects
+  std::string name;  ///< e.g. "tooth46/healthy", "tooth46/lesion1"
+  int object = -1;   ///< index into Model::objects
   std::size_t leaves = 0;
-  int levels = 0;                        ///< tree levels (a lone root has 1)
+  int levels = 0;                            ///< tree levels (a lone root has 1)
   std::vector<std::size_t> nodes_per_level;  ///< level 0 = root
-  double build_seconds = 0.0;            ///< s, level sets + tree + display mesh, or the cache load
+  double build_seconds = 0.0;                ///< s, level sets + tree + display mesh, or the cache load
   bool cache_hit = false;
-  std::optional<Deviation> deviation;    ///< mm, when BuildOptions::measure_deviation
+  std::optional<Deviation> deviation;  ///< mm, when BuildOptions::measure_deviation
 };
 
 /// What building a whole model took.
 struct BuildReport {
-  std::vector<PartReport> parts;         ///< one per Model::objects entry, same order
-  double total_seconds = 0.0;            ///< s, the whole build_model call
+  std::vector<PartReport> parts;  ///< one per Model::objects entry, same order
+  double total_seconds = 0.0;     ///< s, the whole build_model call
 };
 
 /// Builds the engine's Model: meshes or procedural shapes, level sets, CSG with the lesions

@@ -34,8 +34,8 @@ struct SourceLoc {
 struct ShapeDesc {
   enum class Kind : uint8_t { Mesh, Cuboid, Molar, Premolar, Gingiva, Tongue };
   Kind kind = Kind::Cuboid;
-  std::filesystem::path file;  ///< Mesh: resolved path (relative paths are taken from the scene file)
-  double scale = 1.0;          ///< Mesh: multiplies the file's coordinates (files are in mm)
+  std::filesystem::path file;   ///< Mesh: resolved path (relative paths are taken from the scene file)
+  double scale = 1.0;           ///< Mesh: multiplies the file's coordinates (files are in mm)
   Vec3 size{10.0, 10.0, 10.0};  ///< Cuboid: edge lengths (mm); top face at z = 0
   MolarParams molar;            ///< Molar
   PremolarParams premolar;      ///< Premolar
@@ -49,24 +49,24 @@ std::string_view shape_kind_name(ShapeDesc::Kind kind);
 /// Contact material of an object's healthy tissue.
 struct ObjectMaterialDesc {
   double stiffness = std::numeric_limits<double>::infinity();  ///< N/mm; infinity = rigid
-  double mu_s = 0.0;  ///< static friction coefficient
-  double mu_d = 0.0;  ///< dynamic friction coefficient
+  double mu_s = 0.0;                                           ///< static friction coefficient
+  double mu_d = 0.0;                                           ///< dynamic friction coefficient
 };
 
 /// Sphere-tree settings of one object (TreeParams plus the level-set resolution).
 struct TreeDesc {
-  TreeParams params;             ///< mode, depth, tolerance, radii, leaf cap
-  std::optional<double> voxel;   ///< mm, level-set voxel of the object and its lesions; unset: chosen
-                                 ///< from the tolerance (or octree depth) and the object's size
+  TreeParams params;            ///< mode, depth, tolerance, radii, leaf cap
+  std::optional<double> voxel;  ///< mm, level-set voxel of the object and its lesions; unset: chosen
+                                ///< from the tolerance (or octree depth) and the object's size
 };
 
 /// One scene object: a tooth, a block, gingiva, the tongue.
 struct ObjectDesc {
-  std::string name;                 ///< unique within the scene
-  SourceLoc where;                  ///< where the object's entry starts
-  int fdi = 0;                      ///< FDI tooth number (11..48), 0 when not a tooth
-  ShapeDesc shape;                  ///< geometry in the object frame
-  Pose pose;                        ///< object frame -> world (mm)
+  std::string name;  ///< unique within the scene
+  SourceLoc where;   ///< where the object's entry starts
+  int fdi = 0;       ///< FDI tooth number (11..48), 0 when not a tooth
+  ShapeDesc shape;   ///< geometry in the object frame
+  Pose pose;         ///< object frame -> world (mm)
   ObjectKind kind = ObjectKind::Rigid;
   Tissue tissue = Tissue::Generic;  ///< enamel, dentin, gingiva, tongue or generic
   ObjectMaterialDesc material;      ///< healthy tissue's contact material
@@ -85,25 +85,25 @@ struct LesionDesc {
   double snap_range = 3.0;   ///< mm, how far snapping may move the centre
   /// Authored shape: kind, size, width, depth, polygon; centre/normal/tangent in the placement frame.
   LesionShape shape;
-  std::string severity;      ///< "mild", "severe" or "" (no preset)
+  std::string severity;  ///< "mild", "severe" or "" (no preset)
   /// Caries material (preset + overrides). aniso_dir is in the placement frame; lesion index unset.
   Material material;
 };
 
 /// A parsed, validated scene.
 struct SceneDesc {
-  std::string name;                 ///< scene name (the file's `name`, else its stem)
-  std::string description;          ///< free text
-  std::string origin;               ///< the file path or "builtin:NAME"
-  uint64_t source_hash = 0;         ///< hash of the YAML text
+  std::string name;          ///< scene name (the file's `name`, else its stem)
+  std::string description;   ///< free text
+  std::string origin;        ///< the file path or "builtin:NAME"
+  uint64_t source_hash = 0;  ///< hash of the YAML text
   std::vector<ObjectDesc> objects;
   std::vector<LesionDesc> lesions;
-  ExplorerParams tool;              ///< the dental explorer
-  double tool_max_gap = 0.01;       ///< mm, largest gap of the tool's sphere chain along its surface
-  std::optional<Pose> tool_home;    ///< tool frame -> world; unset: above the scene, pointing down
+  ExplorerParams tool;            ///< the dental explorer
+  double tool_max_gap = 0.01;     ///< mm, largest gap of the tool's sphere chain along its surface
+  std::optional<Pose> tool_home;  ///< tool frame -> world; unset: above the scene, pointing down
   DeviceLimits limits;
-  CouplingGains gains;              ///< k_trans defaults to limits.max_stiffness
-  double servo_rate = 1000.0;       ///< Hz
+  CouplingGains gains;         ///< k_trans defaults to limits.max_stiffness
+  double servo_rate = 1000.0;  ///< Hz
 
   /// Index of the object of that name, or -1.
   [[nodiscard]] int find_object(std::string_view object_name) const;
