@@ -313,6 +313,12 @@ TEST(ParseSceneErrors, SyntaxErrorsAreLocated) {
   EXPECT_THAT(error_of("- 1\n- 2\n"), HasSubstr("test.yaml:1:1: expected a mapping, got a sequence"));
 }
 
+TEST(ParseSceneErrors, SelfReferencingAliasesAreRejected) {
+  EXPECT_THAT(error_of("objects: &x [*x]\n"), HasSubstr("objects[0]: expected a mapping, got a sequence"));
+  EXPECT_THAT(error_of("objects:\n  - &o {name: a, shape: {type: cuboid, size: [1, 1, 1]}, pose: *o}\n"),
+              HasSubstr("objects[0].pose.name: unknown key"));
+}
+
 TEST(ParseSceneErrors, MissingMeshFileIsNamed) {
   const std::string yaml = "objects:\n  - name: scan\n    shape: {type: mesh, file: nowhere/tooth.stl}\n";
   const std::string message = error_of(yaml, "/tmp/scenes/x.yaml");
