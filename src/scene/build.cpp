@@ -366,6 +366,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
         throw Error(fmt::format("{}: {}: invalid tree: {}", object_context(o), name, problem));
       }
 
+      part_report.build_seconds = seconds_since(part_start);
+
       // Surface deviation (on request): against the input mesh for a whole object, else the part's surface.
       if (options.measure_deviation) {
         if (!part_ls) part_ls = part_level_set(b, part);
@@ -404,7 +406,6 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       object.tree = std::move(tree);
       model.objects.push_back(std::move(object));
       model.display.push_back(std::move(display));
-      part_report.build_seconds = seconds_since(part_start);
       out.parts.push_back(std::move(part_report));
       report(options.progress, name, 1.0);
       report(options.progress, "scene",
