@@ -50,7 +50,7 @@ struct PartReport {
   std::size_t leaves = 0;
   int levels = 0;                            ///< tree levels (a lone root has 1)
   std::vector<std::size_t> nodes_per_level;  ///< level 0 = root
-  double build_seconds = 0.0;                ///< s, level sets + tree + display mesh, or the cache load
+  double build_seconds = 0.0;  ///< s, level sets, tree, labels and display mesh, or the cache load
   bool cache_hit = false;
   std::optional<Deviation> deviation;  ///< mm, when BuildOptions::measure_deviation
 };
