@@ -26,7 +26,6 @@ namespace {
 // Sanity bounds that keep every value physical and every build finite.
 constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a scene
 constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
-constexpr double kMinResolution = 0.02;     // mm, finest procedural mesh resolution
 constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
 constexpr double kMaxStiffness = 1e6;       // N/mm
 constexpr double kMaxFriction = 10.0;       // friction coefficients
@@ -57,18 +56,14 @@ Pose read_pose(const Reader& r, const YAML::Node& node, const std::string& path)
   return pose;
 }
 
-// Procedural mesh resolution (mm).
-void read_resolution(const Fields& f, double& out) {
-  f.number_in("resolution", out, kMinResolution, 5.0, "mm");
-}
-
 // An object's `shape`: {type: mesh|cuboid|molar|premolar|gingiva|tongue, ...parameters}.
 ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string& path,
                      const std::filesystem::path& base_dir) {
   ShapeDesc s;
-  const Fields head(r, node, path,
-                    {"type", "file", "scale", "size", "mesiodistal", "buccolingual", "crown_height",
-                     "root_length", "cusps", "roots", "resolution", "path", "width", "height", "length"});
+  const Fields head(
+      r, node, path,
+      {"type", "file", "scale", "size", "mesiodistal", "buccolingual", "crown_height", "root_length", "cusps",
+       "roots", "resolution", "path", "width", "height", "length", "mirrored"});
   const std::size_t type = r.choice(head.require("type"), head.sub("type"), "shape type",
                                     {"mesh", "cuboid", "molar", "premolar", "gingiva", "tongue"});
   s.kind = static_cast<ShapeDesc::Kind>(type);
@@ -100,28 +95,32 @@ ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string&
     case ShapeDesc::Kind::Molar: {
       const Fields f(r, node, path,
                      {"type", "mesiodistal", "buccolingual", "crown_height", "root_length", "cusps", "roots",
-                      "resolution"});
-      f.positive("mesiodistal", s.molar.mesiodistal, 50.0, "mm");
-      f.positive("buccolingual", s.molar.buccolingual, 50.0, "mm");
-      f.positive("crown_height", s.molar.crown_height, 50.0, "mm");
-      f.positive("root_length", s.molar.root_length, 50.0, "mm");
+                      "resolution", "mirrored"});
+      if (const auto n = f.get("mirrored"); n.IsDefined()) s.molar.mirrored = r.boolean(n, f.sub("mirrored"));
+      f.number_in("mesiodistal", s.molar.mesiodistal, 5.0, 20.0, "mm");
+      f.number_in("buccolingual", s.molar.buccolingual, 5.0, 20.0, "mm");
+      f.number_in("crown_height", s.molar.crown_height, 3.0, 15.0, "mm");
+      f.number_in("root_length", s.molar.root_length, 4.0, 30.0, "mm");
       if (const auto n = f.get("cusps"); n.IsDefined()) {
         s.molar.cusps = static_cast<int>(r.integer_in(n, f.sub("cusps"), 4, 5));
       }
       if (const auto n = f.get("roots"); n.IsDefined()) {
-        s.molar.roots = static_cast<int>(r.integer_in(n, f.sub("roots"), 1, 3));
+        s.molar.roots = static_cast<int>(r.integer_in(n, f.sub("roots"), 1, 2));
       }
-      read_resolution(f, s.molar.resolution);
+      f.number_in("resolution", s.molar.resolution, 0.05, 1.0, "mm");
       break;
     }
     case ShapeDesc::Kind::Premolar: {
-      const Fields f(r, node, path,
-                     {"type", "mesiodistal", "buccolingual", "crown_height", "root_length", "resolution"});
-      f.positive("mesiodistal", s.premolar.mesiodistal, 50.0, "mm");
-      f.positive("buccolingual", s.premolar.buccolingual, 50.0, "mm");
-      f.positive("crown_height", s.premolar.crown_height, 50.0, "mm");
-      f.positive("root_length", s.premolar.root_length, 50.0, "mm");
-      read_resolution(f, s.premolar.resolution);
+      const Fields f(
+          r, node, path,
+          {"type", "mesiodistal", "buccolingual", "crown_height", "root_length", "resolution", "mirrored"});
+      if (const auto n = f.get("mirrored"); n.IsDefined())
+        s.premolar.mirrored = r.boolean(n, f.sub("mirrored"));
+      f.number_in("mesiodistal", s.premolar.mesiodistal, 4.0, 15.0, "mm");
+      f.number_in("buccolingual", s.premolar.buccolingual, 4.0, 15.0, "mm");
+      f.number_in("crown_height", s.premolar.crown_height, 3.0, 15.0, "mm");
+      f.number_in("root_length", s.premolar.root_length, 4.0, 30.0, "mm");
+      f.number_in("resolution", s.premolar.resolution, 0.05, 1.0, "mm");
       break;
     }
     case ShapeDesc::Kind::Gingiva: {
@@ -137,17 +136,17 @@ ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string&
         }
         s.gingiva.path.push_back(p);
       }
-      f.positive("width", s.gingiva.width, 100.0, "mm");
-      f.positive("height", s.gingiva.height, 100.0, "mm");
-      read_resolution(f, s.gingiva.resolution);
+      f.number_in("width", s.gingiva.width, 0.5, 200.0, "mm");
+      f.number_in("height", s.gingiva.height, 0.5, 100.0, "mm");
+      f.number_in("resolution", s.gingiva.resolution, 0.05, 5.0, "mm");
       break;
     }
     case ShapeDesc::Kind::Tongue: {
       const Fields f(r, node, path, {"type", "length", "width", "height", "resolution"});
-      f.positive("length", s.tongue.length, 200.0, "mm");
-      f.positive("width", s.tongue.width, 200.0, "mm");
-      f.positive("height", s.tongue.height, 200.0, "mm");
-      read_resolution(f, s.tongue.resolution);
+      f.number_in("length", s.tongue.length, 2.0, 300.0, "mm");
+      f.number_in("width", s.tongue.width, 2.0, 300.0, "mm");
+      f.number_in("height", s.tongue.height, 1.0, 300.0, "mm");
+      f.number_in("resolution", s.tongue.resolution, 0.05, 10.0, "mm");
       break;
     }
   }
@@ -193,10 +192,9 @@ TreeDesc read_tree(const Reader& r, const YAML::Node& node, const std::string& p
   if (const auto n = f.get("branching"); n.IsDefined()) {
     t.params.branching = static_cast<int>(r.integer_in(n, f.sub("branching"), 2, 8));
   }
-  if (t.params.min_radius > t.params.max_radius) {
-    r.fail(
-        f.has("min_radius") ? f.get("min_radius") : node, f.sub("min_radius"),
-        fmt::format("min_radius {} mm exceeds max_radius {} mm", t.params.min_radius, t.params.max_radius));
+  if (t.params.min_radius >= t.params.max_radius) {
+    r.fail(f.has("min_radius") ? f.get("min_radius") : node, f.sub("min_radius"),
+           fmt::format("{} mm must be below max_radius ({} mm)", t.params.min_radius, t.params.max_radius));
   }
   return t;
 }
@@ -463,7 +461,7 @@ void read_tool(const Reader& r, const YAML::Node& node, const std::string& path,
   f.positive("working_end_radius", t.working_end_radius, 5.0, "mm");
   f.positive("bend_radius", t.bend_radius, 50.0, "mm");
   if (const auto n = f.get("bend_angle"); n.IsDefined()) {
-    t.bend_angle = r.number_in(n, f.sub("bend_angle"), 0.0, 180.0, "degrees") * kDegree;
+    t.bend_angle = r.number_in(n, f.sub("bend_angle"), 1.0, 180.0, "degrees") * kDegree;
   }
   f.positive("shank_length", t.shank_length, 200.0, "mm");
   f.positive("shank_radius", t.shank_radius, 10.0, "mm");
@@ -471,9 +469,23 @@ void read_tool(const Reader& r, const YAML::Node& node, const std::string& path,
   f.positive("handle_radius", t.handle_radius, 20.0, "mm");
   f.number_in("max_gap", scene.tool_max_gap, 0.001, 1.0, "mm");
   if (const auto n = f.get("home"); n.IsDefined()) scene.tool_home = read_pose(r, n, f.sub("home"));
-  if (t.tip_radius > t.working_end_radius) {
-    r.fail(f.has("tip_radius") ? f.get("tip_radius") : node, f.sub("tip_radius"),
-           fmt::format("{} mm exceeds working_end_radius {} mm", t.tip_radius, t.working_end_radius));
+  // The explorer's shape constraints: radii grow toward the handle, the bend is wider than the wire.
+  const auto at = [&](std::string_view key) { return f.has(key) ? f.get(key) : node; };
+  if (!(t.tip_radius <= t.working_end_radius && t.working_end_radius <= t.shank_radius &&
+        t.shank_radius <= t.handle_radius)) {
+    r.fail(
+        node, path,
+        fmt::format("radii must grow from the tip to the handle: tip_radius {} <= working_end_radius {} <= "
+                    "shank_radius {} <= handle_radius {} mm",
+                    t.tip_radius, t.working_end_radius, t.shank_radius, t.handle_radius));
+  }
+  if (!(t.working_end_radius < t.bend_radius)) {
+    r.fail(at("bend_radius"), f.sub("bend_radius"),
+           fmt::format("must exceed working_end_radius ({} mm)", t.working_end_radius));
+  }
+  if (!(t.handle_length > 2.0 * t.handle_radius + std::min(6.0, 0.25 * t.handle_length))) {
+    r.fail(at("handle_length"), f.sub("handle_length"),
+           fmt::format("{} mm is too short for handle_radius {} mm", t.handle_length, t.handle_radius));
   }
 }
 

@@ -281,9 +281,15 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
   EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"),
               HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 20000] Hz"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tree: {min_radius: 2, max_radius: 1}\n"),
-              HasSubstr("objects[0].tree.min_radius: min_radius 2 mm exceeds max_radius 1 mm"));
+              HasSubstr("objects[0].tree.min_radius: 2 mm must be below max_radius (1 mm)"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: gingiva\n    material: {stiffness: rigid}\n"),
               HasSubstr("objects[0].material.stiffness: a soft object needs a finite stiffness"));
+  EXPECT_THAT(error_of("objects:\n  - {name: m, shape: {type: molar, mesiodistal: 25}}\n"),
+              HasSubstr("objects[0].shape.mesiodistal: 25 is out of range [5, 20] mm"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "tool: {shank_radius: 5}\n"),
+              HasSubstr("tool: radii must grow from the tip to the handle"));
+  EXPECT_THAT(error_of(std::string(kMinimal) + "tool: {bend_radius: 0.3}\n"),
+              HasSubstr("test.yaml:4:21: tool.bend_radius: must exceed working_end_radius (0.45 mm)"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tree: {depth: 4.5}\n"),
               HasSubstr("objects[0].tree.depth: expected an integer, got '4.5'"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    pose: {position: ['1', 0, 0]}\n"),

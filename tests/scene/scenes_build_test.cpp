@@ -102,6 +102,21 @@ TEST_F(OralCavity, LesionsSitOnTheirTeeth) {
   }
 }
 
+// Lower molars have their lingual cusps higher: the highest point of every molar faces the tongue,
+// which the right-side teeth only do when mirrored (scenes/oral-cavity.yaml).
+TEST_F(OralCavity, LingualCuspsFaceTheTongue) {
+  const Model& m = *model_;
+  for (const char* name : {"tooth46/healthy", "tooth47", "tooth36/healthy", "tooth37"}) {
+    const DisplayPart& part = m.display[static_cast<std::size_t>(object_named(m, name))];
+    Vec3f top = part.mesh.vertices.front();
+    for (const Vec3f& v : part.mesh.vertices) {
+      if (v.z() > top.z()) top = v;
+    }
+    const double centre_x = part.mesh.bounds().center().x();
+    EXPECT_LT(std::abs(top.x()), std::abs(centre_x)) << name << ": its highest cusp is buccal";
+  }
+}
+
 // Lesion #2 faces 45 across a gap a correctly angled explorer fits through (paper Fig. 17b).
 TEST_F(OralCavity, InterproximalGapIsProbeSized) {
   const Model& m = *model_;
