@@ -121,15 +121,15 @@ void add_lesion(BuildKey& key, const LesionShape& s) {
   for (const auto& p : s.polygon) key.add(p.x()).add(p.y());
 }
 
-// Adds tree parameters and the level-set resolution to a key.
-void add_tree(BuildKey& key, const TreeParams& p, double voxel, double half_band) {
+// Adds tree parameters and the authored voxel (-1: chosen from the surface and parameters) to a key.
+void add_tree(BuildKey& key, const TreeParams& p, double voxel) {
   key.add(static_cast<int64_t>(p.mode))
       .add(int64_t{p.depth})
       .add(p.tolerance)
       .add(p.max_radius)
       .add(p.min_radius);
   key.add(int64_t{p.fill_interior}).add(static_cast<int64_t>(p.max_leaves)).add(int64_t{p.branching});
-  key.add(voxel).add(half_band);
+  key.add(voxel);
 }
 
 // Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
@@ -179,25 +179,51 @@ TreeParams effective_params(const ObjectDesc& o, const BuildOptions& options) {
   return p;
 }
 
-// The state of building one scene object's parts.
+// The state of building one scene object's parts. The mesh, the resolution and the level sets are
+// made on demand: a cache hit on every part of a lesion-free object needs none of them.
 struct ObjectBuild {
   const ObjectDesc* desc = nullptr;
-  TriangleMesh world_mesh;          // the object's surface in the world
-  std::vector<int> lesions;         // indices into SceneDesc::lesions
-  std::vector<LesionShape> shapes;  // their world shapes (snapped)
   TreeParams params;
-  LevelSetResolution resolution;
-  std::optional<LevelSet> object_ls;  // made on demand
-  std::vector<LevelSet> lesion_ls;    // made on demand
+  std::vector<int> lesions;               // indices into SceneDesc::lesions
+  std::vector<LesionShape> shapes;        // their world shapes (snapped)
+  std::optional<TriangleMesh> mesh;       // the object's surface in the world
+  std::optional<LevelSetResolution> res;  // voxel and band of every level set of this object
+  std::optional<LevelSet> object_ls;
+  std::vector<LevelSet> lesion_ls;
+
+  // The object's surface in the world.
+  const TriangleMesh& world_mesh() {
+    if (!mesh) {
+      mesh = object_mesh(*desc);
+      mesh->transform(desc->pose);
+    }
+    return *mesh;
+  }
+
+  // The level-set resolution: the object's `voxel`, else chosen from its surface and tree mode.
+  const LevelSetResolution& resolution() {
+    if (!res) {
+      if (desc->tree.voxel) {
+        res = LevelSetResolution{*desc->tree.voxel, kBandVoxels * *desc->tree.voxel};
+      } else {
+        try {
+          res = choose_resolution(world_mesh(), params);
+        } catch (const Error& e) {
+          throw Error(fmt::format("{}: {}", object_context(*desc), e.what()));
+        }
+      }
+    }
+    return *res;
+  }
 };
 
 // Level sets of the object and its lesions (once).
 void make_level_sets(ObjectBuild& b) {
   if (b.object_ls) return;
   try {
-    b.object_ls = LevelSet::from_mesh(b.world_mesh, b.resolution.voxel, b.resolution.half_band);
-    for (const LesionShape& s : b.shapes)
-      b.lesion_ls.push_back(s.to_level_set(b.resolution.voxel, b.resolution.half_band));
+    const LevelSetResolution& res = b.resolution();
+    b.object_ls = LevelSet::from_mesh(b.world_mesh(), res.voxel, res.half_band);
+    for (const LesionShape& s : b.shapes) b.lesion_ls.push_back(s.to_level_set(res.voxel, res.half_band));
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}", object_context(*b.desc), e.what()));
   }
@@ -276,26 +302,19 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
     const ObjectDesc& o = scene.objects[i];
     ObjectBuild b;
     b.desc = &o;
-    b.world_mesh = object_mesh(o);
-    b.world_mesh.transform(o.pose);
     b.params = effective_params(o, options);
-    try {
-      b.resolution = choose_resolution(b.world_mesh, b.params);
-    } catch (const Error& e) {
-      throw Error(fmt::format("{}: {}", object_context(o), e.what()));
-    }
-    if (o.tree.voxel) b.resolution = {*o.tree.voxel, kBandVoxels * *o.tree.voxel};
     for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
       if (scene.lesions[k].object != static_cast<int>(i)) continue;
       b.lesions.push_back(static_cast<int>(k));
-      b.shapes.push_back(place_lesion(scene, scene.lesions[k], b.world_mesh));
+      const LesionDesc& l = scene.lesions[k];
+      b.shapes.push_back(l.snap ? place_lesion(scene, l, b.world_mesh()) : lesion_shape_in_world(scene, l));
     }
 
     // What determines this object's parts.
     BuildKey object_key;
     object_key.add(kPartFormat);
     add_geometry(object_key, o);
-    add_tree(object_key, b.params, b.resolution.voxel, b.resolution.half_band);
+    add_tree(object_key, b.params, o.tree.voxel.value_or(-1.0));
     for (const LesionShape& s : b.shapes) add_lesion(object_key, s);
     scene_key.add(static_cast<int64_t>(object_key.value()));
 
@@ -342,8 +361,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
                                   object_context(o), name));
         }
         classify_leaves(built.tree, *b.object_ls,
-                        b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution.voxel);
-        built.display = whole ? b.world_mesh : part_ls->to_mesh();
+                        b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution().voxel);
+        built.display = whole ? b.world_mesh() : part_ls->to_mesh();
         if (cache) cache->store(part_key.value(), built);
         cached = std::move(built);
       }
@@ -371,7 +390,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       // Surface deviation (on request): against the input mesh for a whole object, else the part's surface.
       if (options.measure_deviation) {
         if (!part_ls) part_ls = part_level_set(b, part);
-        part_report.deviation = measure_deviation(tree, whole ? b.world_mesh : cached->display, *part_ls,
+        part_report.deviation = measure_deviation(tree, whole ? b.world_mesh() : cached->display, *part_ls,
                                                   options.deviation_samples);
       }
 
@@ -429,13 +448,16 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   model.servo_rate = scene.servo_rate;
   model.scene_hash = scene_key.value();
 
-  // The tool's home: as given, else above the scene's highest point, pointing down; it must be free.
+  // The tool's home: as given, else above the scene's highest point with the tip lowest; it must be free.
   if (scene.tool_home) {
     model.tool_home = *scene.tool_home;
   } else {
     Eigen::AlignedBox3d bounds;
     for (const DisplayPart& part : model.display) bounds.extend(part.mesh.bounds());
     model.tool_home.p = Vec3(bounds.center().x(), bounds.center().y(), bounds.max().z() + kHomeClearance);
+    // Tilted about the tool's y axis by half the bend: tip segment and handle rise equally, so the
+    // tip is the tool's lowest point.
+    model.tool_home.q = Quat(Eigen::AngleAxisd(-0.5 * scene.tool.bend_angle, Vec3::UnitY()));
   }
   PlacedTool placed(model.tool.tree);
   placed.place(model.tool_home, 0.0);

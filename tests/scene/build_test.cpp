@@ -127,7 +127,11 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
   EXPECT_FALSE(model.display[0].mesh.triangles.empty());
   EXPECT_FALSE(model.tool.tree.empty());
   EXPECT_FALSE(model.tool.display.triangles.empty());
-  EXPECT_GT(model.tool_home.p.z(), 3.0);
+  EXPECT_GT(model.tool_home.p.z(), 3.0);  // the default home: above the block, tip lowest
+  for (const uint32_t n : model.tool.tree.leaf_nodes) {
+    ASSERT_GE(model.tool_home.transform(model.tool.tree.nodes[n].center.cast<double>()).z(),
+              model.tool_home.p.z() - 1e-3);
+  }
   PlacedTool placed(model.tool.tree);
   placed.place(model.tool_home, 0.0);
   EXPECT_GE(closest(placed, model.objects, kAllObjects, 1.0).gap, 0.0);

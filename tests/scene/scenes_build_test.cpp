@@ -135,6 +135,28 @@ TEST_F(OralCavity, InterproximalGapIsProbeSized) {
   }
 }
 
+// Every built-in scene builds: trees for every part, a lesion part per lesion, a free home pose.
+TEST(BuiltinScenesBuild, EveryBuiltInBuilds) {
+  for (const auto& name : builtin_scene_names()) {
+    SCOPED_TRACE(name);
+    const SceneDesc scene = load_scene(name);
+    const Model model = build_model(scene, test_options());
+    EXPECT_EQ(model.objects.size(), scene.objects.size() + scene.lesions.size());
+    EXPECT_EQ(model.lesions.size(), scene.lesions.size());
+    for (const CollisionObject& o : model.objects) EXPECT_GT(o.tree.leaf_count(), 0u) << o.name;
+    PlacedTool tool(model.tool.tree);
+    tool.place(model.tool_home, 0.0);
+    EXPECT_GE(closest(tool, model.objects, kAllObjects, 1.0).gap, 0.0);
+    // The tip is the tool's lowest point at home.
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const uint32_t n : model.tool.tree.leaf_nodes) {
+      lowest =
+          std::min(lowest, model.tool_home.transform(model.tool.tree.nodes[n].center.cast<double>()).z());
+    }
+    EXPECT_NEAR(lowest, model.tool_home.p.z(), 1e-3);
+  }
+}
+
 // scenes/examples/real-tooth.yaml: a real scan by a path relative to the scene file, with a lesion.
 TEST(ExampleScenes, RealToothScanBuilds) {
   const fs::path data = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
