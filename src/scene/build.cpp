@@ -322,14 +322,13 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
     for (int part = -1; part < static_cast<int>(b.lesions.size()); ++part) {
       const auto part_start = Clock::now();
       const bool whole = b.lesions.empty();
+      // The lesion this part shows (-1: the healthy or whole part).
+      const int lesion = part < 0 ? -1 : b.lesions[static_cast<std::size_t>(part)];
       const std::string name =
           whole ? o.name
-                : fmt::format(
-                      "{}/{}", o.name,
-                      part < 0
-                          ? std::string("healthy")
-                          : scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])]
-                                .name);
+                : fmt::format("{}/{}", o.name,
+                              lesion < 0 ? std::string("healthy")
+                                         : scene.lesions[static_cast<std::size_t>(lesion)].name);
       report(options.progress, name, 0.0);
       BuildKey part_key(object_key);
       part_key.add(int64_t{part});
@@ -351,9 +350,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
           throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
         }
         if (built.tree.empty()) {
-          if (part >= 0) {
-            const LesionDesc& l =
-                scene.lesions[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+          if (lesion >= 0) {
+            const LesionDesc& l = scene.lesions[static_cast<std::size_t>(lesion)];
             throw Error(fmt::format("{}: the lesion does not overlap '{}' (its caries part is empty)",
                                     lesion_context(l), o.name));
           }
@@ -369,7 +367,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
 
       // Materials from the leaf depth: healthy enamel/dentin, or the lesion's.
       SphereTree tree = std::move(cached->tree);
-      if (part < 0) {
+      if (lesion < 0) {
         const uint16_t enamel = healthy_material[i];
         const int dentin = dentin_material[i];
         const double thickness = o.enamel_thickness.value_or(std::numeric_limits<double>::infinity());
@@ -377,8 +375,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
           return dentin >= 0 && depth > thickness ? static_cast<uint16_t>(dentin) : enamel;
         });
       } else {
-        const uint16_t m =
-            lesion_material[static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)])];
+        const uint16_t m = lesion_material[static_cast<std::size_t>(lesion)];
         assign_materials(tree, [m](const Vec3&, float) { return m; });
       }
       if (const std::string problem = check_tree(tree, 1e-3); !problem.empty()) {
@@ -404,8 +401,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       display.mesh = std::move(cached->display);
       display.tissue = o.tissue;
       display.object = static_cast<int16_t>(model.objects.size());
-      if (part >= 0) {
-        const std::size_t k = static_cast<std::size_t>(b.lesions[static_cast<std::size_t>(part)]);
+      if (lesion >= 0) {
+        const std::size_t k = static_cast<std::size_t>(lesion);
         object.lesion = static_cast<int16_t>(k);
         object.host = static_cast<int16_t>(healthy_index);
         display.tissue = Tissue::Caries;
