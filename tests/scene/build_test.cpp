@@ -110,7 +110,9 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
     ASSERT_TRUE(m.tissue == Tissue::Enamel || m.tissue == Tissue::Dentin);
     EXPECT_TRUE(m.rigid());
     (m.tissue == Tissue::Enamel ? enamel : dentin)++;
-    if (m.tissue == Tissue::Dentin) EXPECT_GT(healthy.leaf_depth[i], 0.6f);
+    if (m.tissue == Tissue::Dentin) {
+      EXPECT_GT(healthy.leaf_depth[i], 0.6f);
+    }
   }
   EXPECT_GT(enamel, 0);
   EXPECT_GT(dentin, 0);
