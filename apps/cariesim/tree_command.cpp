@@ -25,6 +25,7 @@ struct TreeArgs {
   bool json = false;
   bool quiet = false;
   bool no_cache = false;
+  bool no_deviation = false;  // skip the (slow) deviation measurement
 };
 
 // A scene (built-in name, .yaml/.yml file) or a mesh file.
@@ -140,7 +141,7 @@ int run_tree(const TreeArgs& args) {
   if (!args.mode.empty()) options.mode = args.mode == "octree" ? TreeMode::Octree : TreeMode::Tight;
   options.octree_depth = args.depth;
   options.tolerance = args.tolerance;
-  options.measure_deviation = true;
+  options.measure_deviation = !args.no_deviation;
   options.deviation_samples = args.samples;
   if (!args.quiet) options.progress = stderr_progress();
 
@@ -185,6 +186,7 @@ void register_tree(CLI::App& app, Registry& registry) {
   tree->add_flag("--json", args->json, "print one JSON object");
   tree->add_flag("--quiet", args->quiet, "no progress on stderr");
   tree->add_flag("--no-cache", args->no_cache, "neither read nor write the tree cache");
+  tree->add_flag("--no-deviation", args->no_deviation, "do not measure the surface deviation");
   registry.add(tree, [args] { return run_tree(*args); });
 }
 

@@ -189,6 +189,13 @@ print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
   const Result second = run("tree '" + scene.string() + "' --json --quiet");
   ASSERT_EQ(second.status, 0) << second.err;
   EXPECT_THAT(python_json(second.out, check_parts), HasSubstr("hit"));
+  const Result fast = run("tree '" + scene.string() + "' --json --quiet --no-deviation");
+  ASSERT_EQ(fast.status, 0) << fast.err;
+  EXPECT_THAT(python_json(fast.out, R"(
+assert all("deviation_mm" not in p and p["cache_hit"] and p["leaves"] > 0 for p in d["parts"]), d
+print("no deviation")
+)"),
+              HasSubstr("no deviation"));
   const Result text = run("tree '" + scene.string() + "' --quiet --no-cache");
   ASSERT_EQ(text.status, 0) << text.err;
   EXPECT_THAT(text.out, HasSubstr("block/pit"));
