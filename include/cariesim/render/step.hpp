@@ -26,6 +26,8 @@ enum StepFlag : uint32_t {
   kFlagTorqueClamped = 1u << 5,   ///< torque limited to the device maximum
   kFlagLagging = 1u << 6,         ///< sub-step budget exhausted; the graphic tool is catching up
   kFlagQpRowsFull = 1u << 7,      ///< more constraint rows than the QP capacity
+  kFlagBacktracked = 1u << 8,     ///< the solution overlapped rigid tissue and was shortened
+  kFlagWrongState = 1u << 9,      ///< the state was built for another model; nothing was done
 };
 
 /// One contact as reported to the viewer / logs (the strongest few).
@@ -65,7 +67,8 @@ struct StepOutput {
   double soft_tissue_force = 0.0; ///< N, largest normal force on gingiva/tongue (damage events)
   int tip_tissue = -1;            ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;           ///< µs, wall time of this step
-  int substeps = 0;
+  int substeps = 0;                ///< sub-steps taken (trust region, DESIGN.md §4 step 3)
+  int slips = 0;                   ///< friction anchors that slipped this step (saw-tooth events)
   std::array<ContactReport, kMaxReportedContacts> contact_reports{};
   int contact_report_count = 0;
   TunnelSpheres tunnel;

@@ -1,0 +1,71 @@
+#include "cariesim/scene/trajectory.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cariesim/common/error.hpp"
+
+namespace cariesim {
+namespace {
+
+std::string error_of(std::string_view text) {
+  try {
+    parse_trajectory_csv(text, "traj.csv");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Trajectory, ParsesAndInterpolates) {
+  const Trajectory tr = parse_trajectory_csv(
+      "t,px,py,pz,qw,qx,qy,qz\n"
+      "0,0,0,0,1,0,0,0\n"
+      "# a comment\n"
+      "1.0,10,0,-2,0.7071067811865476,0,0,0.7071067811865476\n",
+      "traj.csv");
+  ASSERT_EQ(tr.t.size(), 2u);
+  const Pose mid = tr.sample(0.5);
+  EXPECT_NEAR(mid.p.x(), 5.0, 1e-12);
+  EXPECT_NEAR(mid.p.z(), -1.0, 1e-12);
+  // Slerp halfway through a 90 degree turn about z is 45 degrees.
+  EXPECT_NEAR(rotation_vector(mid.q).z(), M_PI / 4.0, 1e-9);
+  EXPECT_NEAR(tr.sample(-1.0).p.x(), 0.0, 1e-12);  // clamped before the start
+  EXPECT_NEAR(tr.sample(9.0).p.x(), 10.0, 1e-12);  // and after the end
+}
+
+TEST(Trajectory, ColumnsInAnyOrderAndQuaternionsNormalised) {
+  const Trajectory tr = parse_trajectory_csv("qw,qx,qy,qz,t,px,py,pz,extra\n2,0,0,0,0,1,2,3,x\n", "traj.csv");
+  EXPECT_NEAR(tr.pose[0].q.w(), 1.0, 1e-12);
+  EXPECT_NEAR(tr.pose[0].p.y(), 2.0, 1e-12);
+}
+
+TEST(Trajectory, CursorMatchesSample) {
+  Trajectory tr;
+  for (int i = 0; i <= 10; ++i)
+    tr.add(0.1 * i, Pose{Vec3(i * i, 0, 0), Quat(Eigen::AngleAxisd(0.1 * i, Vec3::UnitX()))});
+  TrajectoryCursor cursor(tr);
+  for (double t = -0.05; t < 1.1; t += 0.013) {
+    const Pose a = cursor.at(t), b = tr.sample(t);
+    EXPECT_NEAR((a.p - b.p).norm(), 0.0, 1e-12) << t;
+    EXPECT_NEAR(a.q.angularDistance(b.q), 0.0, 1e-12) << t;
+  }
+}
+
+TEST(Trajectory, ErrorsNameLineColumnAndField) {
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy\n0,0,0,0,1,0,0\n").find("lacks column 'qz'"), std::string::npos);
+  const std::string bad_number = error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,abc,0,1,0,0,0\n");
+  EXPECT_NE(bad_number.find("traj.csv:2:5"), std::string::npos) << bad_number;
+  EXPECT_NE(bad_number.find("'py'"), std::string::npos) << bad_number;
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,nan,0,1,0,0,0\n").find("not finite"), std::string::npos);
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,0,0,0,0\n").find("zero length"), std::string::npos);
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n1,0,0,0,1,0,0,0\n1,0,0,0,1,0,0,0\n").find("traj.csv:3:1: time"),
+            std::string::npos);
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0\n").find("expected 8 fields"), std::string::npos);
+  EXPECT_NE(error_of("").find("empty"), std::string::npos);
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n").find("no samples"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cariesim
