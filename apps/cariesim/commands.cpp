@@ -16,6 +16,7 @@ void register_all(CLI::App& app, Registry& registry) {
     std::printf("cariesim %s\n", CARIESIM_VERSION);
     return 0;
   });
+  register_sim(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
   // No subcommand: until the viewer exists, build the default scene and print its tree report.

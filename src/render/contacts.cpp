@@ -76,8 +76,9 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
     const SphereNode& node = m.objects[p.object].tree.nodes[p.object_node];
     const Material& mat = m.materials[node.material];
     s.pair_region[i] = -1;
-    // Internal lesion walls are not a surface of compliant tissue; only rigid walls stop the tool.
-    if (!mat.rigid() && (node.flags & kLeafOnLesionWall)) continue;
+    // A caries tree's internal walls (its interface with healthy tissue) are not a surface the tool
+    // can meet: the healthy tree's walls there are.
+    if (m.objects[p.object].lesion >= 0 && (node.flags & kLeafOnLesionWall)) continue;
     const Vec3& local = s.leaf_local[p.tool_leaf];
     int r = 0;
     for (; r < s.region_count; ++r) {
@@ -105,7 +106,6 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
 int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& flags) {
   int added = 0;
   const int first_row = s.problem.row_count;
-  std::array<bool, kMaxRegions> compliant_done{};
   for (int k = 0; k < s.pair_count; ++k) {
     const int i = s.order[k];
     const int r = s.pair_region[i];
@@ -114,24 +114,23 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     const PairGeometry& geo = s.geometry[i];
     const PairRef& p = s.pairs[i];
 
-    // Compliant tissue: one regularised row per region, from its deepest pair.
-    if (reg.compliant) {
-      if (compliant_done[r]) continue;
-      compliant_done[r] = true;
-    } else {
-      // Rigid tissue: a few rows per (tool leaf, object) with distinct normals; the rest are redundant.
-      int same = 0;
-      bool similar = false;
-      for (int row = first_row; row < s.problem.row_count; ++row) {
-        const RowMeta& meta = s.meta[row];
-        if (meta.kind != RowKind::Contact || meta.pair < 0) continue;
-        const PairRef& q = s.pairs[meta.pair];
-        if (q.tool_leaf != p.tool_leaf || q.object != p.object) continue;
-        ++same;
-        if (s.geometry[meta.pair].normal.dot(geo.normal) > 0.97) similar = true;
-      }
-      if (similar || same >= kMaxRowsPerLeafObject) continue;
+    // Compliant tissue: per region, only the deepest pair of each distinct surface direction, so that
+    // many overlapping spheres do not act as parallel springs. Rigid tissue: a few rows per
+    // (tool leaf, object) with distinct normals; the rest are redundant.
+    int same = 0;
+    bool similar = false;
+    for (int row = first_row; row < s.problem.row_count; ++row) {
+      const RowMeta& meta = s.meta[row];
+      if (meta.kind != RowKind::Contact || meta.pair < 0) continue;
+      const PairRef& q = s.pairs[meta.pair];
+      const bool grouped = reg.compliant ? meta.region == r
+                                         : (q.tool_leaf == p.tool_leaf && q.object == p.object);
+      if (!grouped) continue;
+      ++same;
+      const double cos_similar = reg.compliant ? kCompliantNormalCos : kRigidNormalCos;
+      if (s.geometry[meta.pair].normal.dot(geo.normal) > cos_similar) similar = true;
     }
+    if (similar || same >= kMaxRowsPerLeafObject) continue;
 
     QpRow row;
     row.a.head<3>() = geo.normal;

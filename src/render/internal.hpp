@@ -12,7 +12,9 @@ namespace cariesim::detail {
 
 inline constexpr double kTipRegion = 0.3;     ///< mm: tool leaves this close to the tip count as "the tip"
 inline constexpr double kRegionRadius = 1.0;  ///< mm: tool leaves this close share a contact region
-inline constexpr int kMaxRowsPerLeafObject = 3;  ///< rigid rows per (tool leaf, object), distinct normals
+inline constexpr int kMaxRowsPerLeafObject = 3;  ///< rows per rigid (tool leaf, object) or compliant region
+inline constexpr double kRigidNormalCos = 0.97;     ///< rigid rows closer in direction than this are redundant
+inline constexpr double kCompliantNormalCos = 0.9;  ///< compliant rows closer than this would add stiffness
 
 /// 6-D difference (translation mm, rotation vector rad) that moves `from` onto `to`.
 Vec6 config_difference(const Pose& to, const Pose& from);
