@@ -39,23 +39,41 @@ bool collect_pairs(const Model& m, StateImpl& s, const Pose& g, ObjectMask mask)
   const std::size_t n = std::min<std::size_t>(s.contacts.size(), kMaxPairs);
   for (std::size_t i = 0; i < n; ++i) {
     const Contact& c = s.contacts[i];
-    s.pairs[i] = PairRef{c.object_node, c.tool_leaf, c.object};
+    s.pairs[i] = PairRef{c.object_node, c.tool_leaf, c.object, false};
   }
   s.pair_count = static_cast<int>(n);
   return !s.contacts.overflow() && s.contacts.size() <= kMaxPairs;
 }
 
 PairGeometry pair_geometry(const Model& m, const StateImpl& s, const Pose& g, const PairRef& p) {
-  const SphereNode& node = m.objects[p.object].tree.nodes[p.object_node];
+  const SphereTree& tree = m.objects[p.object].tree;
+  const SphereNode& node = tree.nodes[p.object_node];
   const Vec3 c_t = leaf_world(s, g, p.tool_leaf);
   const Vec3 c_o = node.center.cast<double>();
-  Vec3 d = c_t - c_o;
-  double dist = d.norm();
+  const double r_t = s.leaf_radius[p.tool_leaf];
+  const double r_o = node.radius;
   PairGeometry out;
+  out.lever = c_t - g.p;
+
+  // Compliant tissue, with the tool above the leaf's patch of surface: depth below that patch's
+  // plane. Every leaf of one flat patch then gives the same depth and normal, however many overlap,
+  // and the depth stays right when the tool sinks deeper than the leaf's centre.
+  const Vec3 d = c_t - c_o;
+  if (!m.materials[node.material].rigid() && node.leaf < tree.leaf_normal.size()) {
+    const Vec3 n_s = tree.leaf_normal[node.leaf].cast<double>();
+    const double h = d.dot(n_s);
+    if (n_s.squaredNorm() > 0.5 && (d - h * n_s).norm() <= r_o) {
+      out.normal = n_s;
+      out.gap = h - r_o - r_t;
+      return out;
+    }
+  }
+
+  // Sphere against sphere.
+  const double dist = d.norm();
   // Coincident centres: push along the tool's own axis, any finite direction will do.
   out.normal = dist > 1e-12 ? Vec3(d / dist) : Vec3(g.z_axis());
-  out.lever = c_t - g.p;
-  out.gap = dist - s.leaf_radius[p.tool_leaf] - static_cast<double>(node.radius);
+  out.gap = dist - r_t - r_o;
   return out;
 }
 
@@ -130,7 +148,7 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
       const double cos_similar = reg.compliant ? kCompliantNormalCos : kRigidNormalCos;
       if (s.geometry[meta.pair].normal.dot(geo.normal) > cos_similar) similar = true;
     }
-    if (similar || same >= kMaxRowsPerLeafObject) continue;
+    if (!p.forced && (similar || same >= kMaxRowsPerLeafObject)) continue;
 
     QpRow row;
     row.a.head<3>() = geo.normal;
@@ -184,7 +202,7 @@ double recheck_rigid(const Model& m, StateImpl& s, const Pose& g, ObjectMask mas
       known = p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object;
     }
     if (known) continue;
-    s.pairs[s.pair_count++] = PairRef{con.object_node, con.tool_leaf, con.object};
+    s.pairs[s.pair_count++] = PairRef{con.object_node, con.tool_leaf, con.object, true};
     ++added;
   }
   return worst.gap;

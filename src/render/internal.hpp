@@ -64,18 +64,21 @@ struct ExtraRows {
 struct SubstepRequest {
   Vec6 target = Vec6::Zero();  ///< 6-D displacement toward which the graphic tool is pulled
   Mat6 G = Mat6::Identity();   ///< weights of the distance (N/mm, N·mm/rad)
-  double trans_bound = 0.0;    ///< mm, largest tool-origin motion considered for collision
-  double rot_bound = 0.0;      ///< rad, largest rotation considered for collision
+  double trans_bound = 0.0;    ///< mm, largest tool-origin motion of this sub-step (trust region)
+  double rot_bound = 0.0;      ///< rad, largest rotation of this sub-step
   ObjectMask mask = kAllObjects;
   bool friction = true;        ///< add stick rows and check the cone
-  bool final = false;          ///< the last sub-step of the step (friction cone is checked)
   bool hold_only = false;      ///< see add_contact_rows
   const ExtraRows* extra = nullptr;
 };
-/// Solves one sub-step from g0 (paper eq. 1 linearised: DESIGN.md §4 steps 1-4) and returns the new
-/// graphic pose. Never leaves the tool overlapping rigid tissue by more than the tolerance when g0
-/// did not: re-checks collision at the solution, re-solves with new pairs, backtracks if needed.
-Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out);
+/// Solves one sub-step from g0 (paper eq. 1 linearised: DESIGN.md §4 steps 1-4): the graphic tool is
+/// pulled toward the full target but moves at most by the bounds (the solution is shortened onto
+/// them; every pair within reach of that motion is in the rows). Sets `reached` when the solution
+/// was within the bounds (the last sub-step of a cycle; the friction cone is checked only then).
+/// Never leaves the tool overlapping rigid tissue by more than the tolerance when g0 did not:
+/// re-checks collision at the solution, re-solves with new pairs, backtracks if needed.
+Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out,
+                   bool& reached);
 
 // tunnel.cpp
 /// Sliding -> penetration (paper §3.1 criteria, eqs. 3-4): the tip touched caries in the last step and

@@ -22,6 +22,7 @@ struct PairRef {
   uint32_t object_node = 0;
   uint16_t tool_leaf = 0;
   uint16_t object = 0;
+  bool forced = false;  ///< found overlapping at a solution: always gets its own row
 };
 
 /// The geometry of a pair at one configuration.

@@ -91,28 +91,25 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
     return;
   }
 
-  // Trust region: split the motion so no sub-step moves the tool further than the bounds.
-  const double needed = std::max({1.0, std::ceil(trans / m.params.trust_step),
-                                  std::ceil(rot / m.params.trust_rotation)});
-  const int k_needed = static_cast<int>(std::min(needed, 1e6));
-  const int k_steps = std::min(k_needed, std::max(1, m.params.max_substeps));
-  if (k_needed > k_steps) out.flags |= kFlagLagging;
-
+  // Trust region: sub-steps of bounded motion, each pulled toward the haptic tool, until one ends
+  // inside its bounds. In steady contact that is the first one.
   SubstepRequest req;
   req.G.setZero();
   req.G.diagonal() << m.gains.k_trans, m.gains.k_trans, m.gains.k_trans, m.gains.k_rot, m.gains.k_rot,
       m.gains.k_rot;
+  req.trans_bound = m.params.trust_step;
+  req.rot_bound = m.params.trust_rotation;
   Pose g = s.graphic;
-  for (int k = 0; k < k_steps; ++k) {
-    remaining = config_difference(haptic, g);
-    req.target = remaining / static_cast<double>(k_needed - k);
-    req.trans_bound = req.target.head<3>().norm();
-    req.rot_bound = req.target.tail<3>().norm();
-    req.final = k_needed - k == 1;
-    g = solve_substep(m, s, g, req, out);
+  bool reached = false;
+  int k = 0;
+  while (!reached && k < std::max(1, m.params.max_substeps)) {
+    req.target = config_difference(haptic, g);
+    g = solve_substep(m, s, g, req, out, reached);
+    ++k;
   }
+  if (!reached) out.flags |= kFlagLagging;
   s.graphic = g;
-  out.substeps = k_steps;
+  out.substeps = k;
 
   // New sticking contacts, and what the tip touches (for the penetration criteria next cycle).
   create_anchors(m, s, g);

@@ -7,6 +7,7 @@
 //      is solved again; if overlaps remain, the step is shortened (bisection) until it is clear.
 // The tangent-plane rows are conservative for translations, so step 5 only catches the second-order
 // effect of rotations and pairs outside the margin; it rarely runs.
+#include <algorithm>
 #include <cmath>
 
 #include "render/internal.hpp"
@@ -44,27 +45,40 @@ Vec6 solve_rows(const Model& m, StateImpl& s, const Pose& g0, const SubstepReque
 
 }  // namespace
 
-Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out) {
-  // Step 1: pairs within reach of this sub-step's motion.
+Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out,
+                   bool& reached) {
+  // Step 1: pairs within reach of this sub-step's largest motion.
   set_leaf_margins(m, s, req.trans_bound, req.rot_bound);
   if (!collect_pairs(m, s, g0, req.mask)) out.flags |= kFlagContactOverflow;
 
   const double tol = m.params.rigid_tolerance;
   const int max_passes = m.params.max_rechecks + 2;
-  bool friction_checked = !(req.friction && req.final);
+  bool friction_checked = !req.friction;
   Vec6 d = Vec6::Zero();
+  reached = true;
   for (int pass = 0; pass < max_passes; ++pass) {
-    // Steps 2-3: rows and solve.
+    // Steps 2-3: rows and solve, then shorten the motion onto the trust region (the feasible set is
+    // convex and contains the start, so a shortened solution stays feasible).
     d = solve_rows(m, s, g0, req, out);
+    const double trans = d.head<3>().norm(), rot = d.tail<3>().norm();
+    const double scale = std::min({1.0, trans > 0.0 ? req.trans_bound / trans : 1.0,
+                                   rot > 0.0 ? req.rot_bound / rot : 1.0});
+    reached = scale >= 1.0;
 
-    // Step 4: friction cone; slipped or released anchors change the rows, so solve once more.
-    if (!friction_checked) {
+    // Step 4: friction cone, once the motion ends in this sub-step; slipped or released anchors
+    // change the rows, so solve once more.
+    if (reached && !friction_checked) {
       friction_checked = true;
       int slipped = 0;
       if (slip_anchors(m, s, g0, req.G, slipped) > 0) {
         out.slips += slipped;
         d = solve_rows(m, s, g0, req, out);
+        const double t2 = d.head<3>().norm(), r2 = d.tail<3>().norm();
+        const double s2 = std::min({1.0, t2 > 0.0 ? req.trans_bound / t2 : 1.0, r2 > 0.0 ? req.rot_bound / r2 : 1.0});
+        d *= s2;
       }
+    } else {
+      d *= scale;
     }
 
     // Step 5: re-check at the solution.

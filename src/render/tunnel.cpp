@@ -173,13 +173,13 @@ void penetration_step(const Model& m, StateImpl& s, const Pose& haptic, double d
   req.G.diagonal() << m.limits.max_stiffness, m.limits.max_stiffness, m.limits.max_stiffness,
       mat.k_theta, mat.k_theta, mat.k_theta;
   req.trans_bound = std::max(upper - t.depth, t.depth - lower) + 1e-6;
-  req.rot_bound = 0.0;
+  req.rot_bound = 1e-6;
   req.mask = s.all_mask & ~(ObjectMask{1} << t.object);
   req.friction = false;
-  req.final = true;
   req.hold_only = true;
   req.extra = &rows;
-  s.graphic = solve_substep(m, s, g_prev, req, out);
+  bool reached = false;
+  s.graphic = solve_substep(m, s, g_prev, req, out, reached);
   t.depth = std::max(0.0, (s.graphic.p - t.entry).dot(t.n));
   out.substeps = 1;
 

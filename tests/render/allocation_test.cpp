@@ -2,39 +2,9 @@
 // around many steps that exercise free motion, sliding with friction, and slips.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
 #include "cariesim/render/step.hpp"
 #include "render/render_support.hpp"
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void* operator new(std::size_t size, std::align_val_t align) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  const std::size_t a = static_cast<std::size_t>(align);
-  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size, std::align_val_t align) { return operator new(size, align); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "support/alloc_counter.hpp"
 
 namespace cariesim {
 namespace {
@@ -47,8 +17,7 @@ TEST(StepAllocations, ManyStepsAllocateNothing) {
   State s(m, test::probe_at(Vec3(-4, 0, 2)));
   step(m, s, HapticInput{test::probe_at(Vec3(-4, 0, 2)), 0.001});  // warm up outside the window
 
-  g_allocations = 0;
-  g_counting = true;
+  const std::size_t before = test::allocation_count();
   int slips = 0, sliding = 0;
   for (int i = 0; i < 4000; ++i) {
     const double x = -4.0 + 8.0 * i / 4000.0;
@@ -57,8 +26,7 @@ TEST(StepAllocations, ManyStepsAllocateNothing) {
     slips += out.slips;
     sliding += out.state == InteractionState::Sliding;
   }
-  g_counting = false;
-  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_EQ(test::allocation_count() - before, 0u);
   EXPECT_GT(slips, 3);       // the window did exercise friction
   EXPECT_GT(sliding, 3000);  // and contact
 }

@@ -31,6 +31,7 @@ std::vector<LeafSphere> slab(const SlabSpec& spec, const std::function<uint16_t(
       leaf.material = material_of(Vec3(x, y, spec.top));
       leaf.flags = kLeafOnExposedSurface;
       leaf.depth = static_cast<float>(spec.radius);
+      leaf.normal = Vec3f::UnitZ();
       leaves.push_back(leaf);
     }
   }
@@ -77,19 +78,14 @@ Material soft(double k, double mu_s, double mu_d, Tissue tissue) {
 Pose probe_at(const Vec3& p) { return Pose{p, Quat::Identity()}; }
 
 double rigid_clearance(const Model& m, const Pose& tool) {
-  double worst = std::numeric_limits<double>::infinity();
-  for (const CollisionObject& o : m.objects) {
-    if (o.kind != ObjectKind::Rigid) continue;
-    for (uint32_t t : m.tool.tree.leaf_nodes) {
-      const SphereNode& tn = m.tool.tree.nodes[t];
-      const Vec3 ct = tool.transform(tn.center.cast<double>());
-      for (uint32_t l : o.tree.leaf_nodes) {
-        const SphereNode& on = o.tree.nodes[l];
-        worst = std::min(worst, (ct - on.center.cast<double>()).norm() - tn.radius - on.radius);
-      }
-    }
-  }
-  return worst;
+  // The collision module's branch-and-bound closest pair (checked against brute force in its tests).
+  PlacedTool placed(m.tool.tree);
+  placed.place(tool, 0.0);
+  ObjectMask rigid = 0;
+  for (std::size_t i = 0; i < m.objects.size(); ++i)
+    if (m.objects[i].kind == ObjectKind::Rigid) rigid |= ObjectMask{1} << i;
+  const ClosestPair c = closest(placed, m.objects, rigid, 1.0);
+  return std::isfinite(c.gap) ? c.gap : 1.0;
 }
 
 }  // namespace cariesim::test

@@ -38,7 +38,7 @@ Material soft(double k, double mu_s = 0.0, double mu_d = 0.0, Tissue tissue = Ti
 /// The probe pointing straight down (tool +z = world +z), tip centre at p.
 Pose probe_at(const Vec3& p);
 
-/// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects (brute force).
+/// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects, capped at 1 mm.
 double rigid_clearance(const Model& m, const Pose& tool);
 
 }  // namespace cariesim::test

@@ -41,6 +41,10 @@ struct SphereTree {
   std::vector<SphereNode> nodes;       ///< node 0 is the root
   std::vector<uint32_t> leaf_nodes;    ///< leaf index -> node index
   std::vector<float> leaf_depth;       ///< mm, leaf index -> depth of the centre below the object's outer surface
+  /// leaf index -> unit outward normal of the surface the leaf is tangent to (the gradient of the
+  /// solid's signed distance at the centre); zero when unknown. Compliant contacts use it so that all
+  /// leaves of one flat patch push the same way.
+  std::vector<Vec3f> leaf_normal;
   TreeMode mode = TreeMode::Tight;
   int levels = 0;                      ///< depth of the deepest leaf + 1 (a lone root has 1 level)
 

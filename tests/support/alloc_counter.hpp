@@ -1,0 +1,11 @@
+#pragma once
+// Counts heap allocations made through global operator new (replaced in alloc_counter.cpp), so tests
+// can prove that the servo-loop code allocates nothing.
+#include <cstddef>
+
+namespace cariesim::test {
+
+/// Allocations made since the program started.
+std::size_t allocation_count();
+
+}  // namespace cariesim::test
