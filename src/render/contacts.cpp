@@ -121,9 +121,31 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
   }
 }
 
+namespace {
+
+// The row group of a pair: its compliant region, or its rigid (tool leaf, object) slot.
+StateImpl::RowGroup* row_group(StateImpl& s, const PairRef& p, const Region& reg, int region) {
+  if (reg.compliant) {
+    StateImpl::RowGroup& g = s.region_rows[region];
+    if (g.stamp != s.row_stamp) g = StateImpl::RowGroup{s.row_stamp, p.object, 0, {}};
+    return &g;
+  }
+  for (int slot = 0; slot < 2; ++slot) {
+    StateImpl::RowGroup& g = s.leaf_rows[2 * p.tool_leaf + slot];
+    if (g.stamp != s.row_stamp) {
+      g = StateImpl::RowGroup{s.row_stamp, p.object, 0, {}};
+      return &g;
+    }
+    if (g.object == p.object) return &g;
+  }
+  return nullptr;  // a third object for this tool leaf: its rows are not deduplicated
+}
+
+}  // namespace
+
 int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& flags) {
   int added = 0;
-  const int first_row = s.problem.row_count;
+  ++s.row_stamp;
   for (int k = 0; k < s.pair_count; ++k) {
     const int i = s.order[k];
     const int r = s.pair_region[i];
@@ -135,20 +157,14 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     // Compliant tissue: per region, only the deepest pair of each distinct surface direction, so that
     // many overlapping spheres do not act as parallel springs. Rigid tissue: a few rows per
     // (tool leaf, object) with distinct normals; the rest are redundant.
-    int same = 0;
-    bool similar = false;
-    for (int row = first_row; row < s.problem.row_count; ++row) {
-      const RowMeta& meta = s.meta[row];
-      if (meta.kind != RowKind::Contact || meta.pair < 0) continue;
-      const PairRef& q = s.pairs[meta.pair];
-      const bool grouped = reg.compliant ? meta.region == r
-                                         : (q.tool_leaf == p.tool_leaf && q.object == p.object);
-      if (!grouped) continue;
-      ++same;
+    StateImpl::RowGroup* group = row_group(s, p, reg, r);
+    if (group != nullptr && !p.forced) {
       const double cos_similar = reg.compliant ? kCompliantNormalCos : kRigidNormalCos;
-      if (s.geometry[meta.pair].normal.dot(geo.normal) > cos_similar) similar = true;
+      bool similar = false;
+      for (int j = 0; j < group->count; ++j)
+        similar = similar || s.geometry[s.meta[group->rows[j]].pair].normal.dot(geo.normal) > cos_similar;
+      if (similar || group->count >= kMaxRowsPerLeafObject) continue;
     }
-    if (!p.forced && (similar || same >= kMaxRowsPerLeafObject)) continue;
 
     QpRow row;
     row.a.head<3>() = geo.normal;
@@ -165,8 +181,9 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
       flags |= kFlagQpRowsFull;
       break;
     }
-    s.meta[s.problem.row_count - 1] = RowMeta{RowKind::Contact, static_cast<int16_t>(r), -1,
-                                              static_cast<int16_t>(i)};
+    const int index = s.problem.row_count - 1;
+    s.meta[index] = RowMeta{RowKind::Contact, static_cast<int16_t>(r), -1, static_cast<int16_t>(i)};
+    if (group != nullptr && group->count < 3) group->rows[group->count++] = static_cast<int16_t>(index);
     ++added;
   }
   return added;

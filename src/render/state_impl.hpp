@@ -97,6 +97,8 @@ struct StateImpl {
   uint16_t tip_material = 0;
   double tip_sink = 0.0;     ///< mm, how deep the tip was in that caries
   uint64_t steps = 0;
+  double last_motion = 0.0;    ///< mm, tool-origin translation of the graphic tool in the last cycle
+  double last_rotation = 0.0;  ///< rad, its rotation in the last cycle
 
   // Model-derived constants.
   std::size_t object_count = 0;
@@ -106,6 +108,7 @@ struct StateImpl {
   std::vector<Vec3> leaf_local;      ///< mm, tool leaf centres in the tool frame
   std::vector<double> leaf_radius;   ///< mm
   std::vector<double> leaf_reach;    ///< mm, |leaf centre| (lever length)
+  double max_reach = 0.0;            ///< mm, largest leaf_reach
 
   // Scratch (reserved once).
   PlacedTool placed;
@@ -118,6 +121,16 @@ struct StateImpl {
   int pair_count = 0;
   std::array<Region, kMaxRegions> regions{};
   int region_count = 0;
+  /// Rows already made for a group of pairs (a compliant region, or a rigid (tool leaf, object)).
+  struct RowGroup {
+    uint64_t stamp = 0;   ///< equals row_stamp when the group belongs to the current row build
+    uint16_t object = 0;
+    uint8_t count = 0;
+    std::array<int16_t, 3> rows{};
+  };
+  std::array<RowGroup, kMaxRegions> region_rows{};
+  std::vector<RowGroup> leaf_rows;  ///< two per tool leaf (a leaf may touch two rigid objects)
+  uint64_t row_stamp = 0;
   QpProblem problem;
   QpResult result;
   QpSolver solver;

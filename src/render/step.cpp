@@ -39,11 +39,13 @@ StateImpl::StateImpl(const Model& model)
   leaf_radius.resize(tool_leaves);
   leaf_reach.resize(tool_leaves);
   leaf_margin.resize(tool_leaves);
+  leaf_rows.resize(2 * tool_leaves);
   for (std::size_t i = 0; i < tool_leaves; ++i) {
     const SphereNode& node = model.tool.tree.nodes[model.tool.tree.leaf_nodes[i]];
     leaf_local[i] = node.center.cast<double>();
     leaf_radius[i] = node.radius;
     leaf_reach[i] = leaf_local[i].norm();
+    max_reach = std::max(max_reach, leaf_reach[i]);
   }
 }
 
@@ -79,9 +81,9 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
   const double rot = remaining.tail<3>().norm();
 
   // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand.
-  set_leaf_margins(m, s, trans, rot);
-  if (!collect_pairs(m, s, s.graphic, s.all_mask)) out.flags |= kFlagContactOverflow;
-  if (s.pair_count == 0) {
+  s.placed.place(s.graphic, 0.0);
+  const double reach = trans + rot * s.max_reach + m.params.contact_margin;
+  if (!std::isfinite(closest(s.placed, m.objects, s.all_mask, reach).gap)) {
     s.graphic = haptic;
     s.region_count = 0;
     s.problem.row_count = 0;
@@ -97,14 +99,18 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
   req.G.setZero();
   req.G.diagonal() << m.gains.k_trans, m.gains.k_trans, m.gains.k_trans, m.gains.k_rot, m.gains.k_rot,
       m.gains.k_rot;
-  req.trans_bound = m.params.trust_step;
-  req.rot_bound = m.params.trust_rotation;
+  // The first bound follows the last cycle's motion (a resting or slowly sliding tool needs only a
+  // thin collision margin); each further sub-step doubles it up to the trust region.
+  req.trans_bound = std::clamp(2.0 * s.last_motion + 0.005, 0.01, m.params.trust_step);
+  req.rot_bound = std::clamp(2.0 * s.last_rotation + 1e-4, 1e-3, m.params.trust_rotation);
   Pose g = s.graphic;
   bool reached = false;
   int k = 0;
   while (!reached && k < std::max(1, m.params.max_substeps)) {
     req.target = config_difference(haptic, g);
     g = solve_substep(m, s, g, req, out, reached);
+    req.trans_bound = std::min(2.0 * req.trans_bound, m.params.trust_step);
+    req.rot_bound = std::min(2.0 * req.rot_bound, m.params.trust_rotation);
     ++k;
   }
   if (!reached) out.flags |= kFlagLagging;
@@ -208,6 +214,8 @@ StepOutput step(const Model& m, State& state, const HapticInput& in) {
   const double dt = std::isfinite(in.dt) && in.dt > 0.0 && in.dt <= 0.1 ? in.dt : 1.0 / m.servo_rate;
   if (s.have_haptic && (haptic.p - s.last_haptic.p).norm() > m.params.max_jump) out.flags |= kFlagJumpLimited;
 
+  const Pose graphic_before = s.graphic;
+
   // The interaction state machine (paper Fig. 4).
   bool inside = s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
   if (!inside) inside = try_enter_penetration(m, s, haptic);
@@ -216,6 +224,9 @@ StepOutput step(const Model& m, State& state, const HapticInput& in) {
   else
     sliding_step(m, s, haptic, out);
 
+  const Vec6 moved = config_difference(s.graphic, graphic_before);
+  s.last_motion = moved.head<3>().norm();
+  s.last_rotation = moved.tail<3>().norm();
   s.last_haptic = haptic;
   s.have_haptic = true;
   ++s.steps;
