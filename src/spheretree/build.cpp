@@ -69,8 +69,30 @@ LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams&
 SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
   check_params(params);
   if (shape.empty()) return {};
-  return params.mode == TreeMode::Octree ? detail::build_octree_tree(shape, params, progress)
-                                         : detail::build_tight_tree(shape, params, progress);
+  SphereTree tree = params.mode == TreeMode::Octree ? detail::build_octree_tree(shape, params, progress)
+                                                    : detail::build_tight_tree(shape, params, progress);
+  set_leaf_normals(tree, shape);
+  return tree;
+}
+
+// The outward normal of the surface each surface leaf is tangent to: the unit gradient of the solid's
+// distance at the leaf's centre (a leaf's nearest surface point lies along it). Interior fillers keep
+// a zero normal.
+void set_leaf_normals(SphereTree& tree, const LevelSet& shape) {
+  if (tree.empty()) return;
+  constexpr uint32_t kSurface = kLeafOnExposedSurface | kLeafOnLesionWall;
+  double max_radius = 0.0;
+  for (uint32_t node : tree.leaf_nodes)
+    if (tree.nodes[node].flags & kSurface) max_radius = std::max(max_radius, double(tree.nodes[node].radius));
+  const detail::DistanceField field(shape, max_radius + 2.0 * shape.voxel_size());
+  detail::DistanceField::Probe probe(field);
+  tree.leaf_normal.assign(tree.leaf_nodes.size(), Vec3f::Zero());
+  for (std::size_t i = 0; i < tree.leaf_nodes.size(); ++i) {
+    const SphereNode& node = tree.nodes[tree.leaf_nodes[i]];
+    if (!(node.flags & kSurface)) continue;
+    const Vec3 g = probe.gradient(node.center.cast<double>());
+    if (g.allFinite() && g.norm() > 0.5) tree.leaf_normal[i] = g.normalized().cast<float>();
+  }
 }
 
 // A leaf touches the outer surface when its sphere reaches within `touch_mm` of it; otherwise a leaf

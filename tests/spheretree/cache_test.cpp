@@ -38,6 +38,8 @@ class CacheTest : public ::testing::Test {
                         static_cast<uint16_t>(i % 5), (i % 3 == 0) ? kLeafInterior : kLeafOnExposedSurface,
                         0.1f * (i % 7)});
     }
+    for (std::size_t i = 0; i < leaves.size(); ++i)
+      leaves[i].normal = Vec3f(std::cos(0.1f * i), std::sin(0.1f * i), 0.0f);
     CachedPart part;
     part.tree = build_hierarchy(leaves, 4);
     part.tree.mode = TreeMode::Tight;
@@ -76,6 +78,7 @@ void expect_same(const CachedPart& a, const CachedPart& b) {
   }
   EXPECT_EQ(a.tree.leaf_nodes, b.tree.leaf_nodes);
   EXPECT_EQ(a.tree.leaf_depth, b.tree.leaf_depth);
+  EXPECT_EQ(a.tree.leaf_normal, b.tree.leaf_normal);
   EXPECT_EQ(a.tree.mode, b.tree.mode);
   EXPECT_EQ(a.tree.levels, b.tree.levels);
   EXPECT_EQ(a.display.vertices, b.display.vertices);

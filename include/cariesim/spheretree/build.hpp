@@ -51,6 +51,9 @@ LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams&
 SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params,
                              const ProgressFn& progress = {});
 
+/// Sets SphereTree::leaf_normal from the solid's distance field (build_sphere_tree does this).
+void set_leaf_normals(SphereTree& tree, const LevelSet& shape);
+
 /// Builds the tool's tree from its sphere chain (leaves in chain order, tip first).
 SphereTree build_tool_tree(const std::vector<ToolSphere>& spheres, int branching = 4);
 
