@@ -31,9 +31,16 @@ StateImpl::StateImpl(const Model& model)
   if (object_count > 64) throw Error("model has " + std::to_string(object_count) + " objects; at most 64");
   tool_leaves = model.tool.tree.leaf_count();
   if (tool_leaves == 0) throw Error("model has an empty tool tree");
+  // An object counts as rigid for the overlap re-check when every one of its leaves is of rigid
+  // material (its kind only says how it is drawn).
   for (std::size_t i = 0; i < object_count; ++i) {
     all_mask |= ObjectMask{1} << i;
-    if (model.objects[i].kind == ObjectKind::Rigid) rigid_mask |= ObjectMask{1} << i;
+    const SphereTree& tree = model.objects[i].tree;
+    const bool rigid = std::all_of(tree.leaf_nodes.begin(), tree.leaf_nodes.end(), [&](uint32_t node) {
+      const uint16_t material = tree.nodes[node].material;
+      return material < model.materials.size() && model.materials[material].rigid();
+    });
+    if (rigid && !tree.empty()) rigid_mask |= ObjectMask{1} << i;
   }
   leaf_local.resize(tool_leaves);
   leaf_radius.resize(tool_leaves);

@@ -54,7 +54,7 @@ struct DeviceLimits {
 struct StepParams {
   double trust_step = 0.1;          ///< mm, largest tool-leaf motion per sub-step (trust region)
   double trust_rotation = 0.02;     ///< rad, largest rotation per sub-step
-  int max_substeps = 16;            ///< per step; the graphic tool lags behind beyond that
+  int max_substeps = 6;             ///< per step; the graphic tool lags behind beyond that
   int max_rechecks = 3;             ///< collision re-checks at the solution per sub-step
   double rigid_tolerance = 0.005;   ///< mm, allowed overlap with rigid leaves at the end of a step
   double max_jump = 20.0;           ///< mm, a larger haptic jump in one step is flagged and limited
