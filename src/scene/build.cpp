@@ -121,6 +121,12 @@ void add_lesion(BuildKey& key, const LesionShape& s) {
   for (const auto& p : s.polygon) key.add(p.x()).add(p.y());
 }
 
+// Display meshes use OpenVDB's adaptive meshing: 0.1 keeps the shape well within the trees' tolerance
+// to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
+constexpr double kDisplayAdaptivity = 0.1;
+// Bumped whenever the tree builders or the part building change what a cached part holds.
+constexpr int64_t kPartVersion = 2;
+
 // Adds tree parameters and the authored voxel (-1: chosen from the surface and parameters) to a key.
 void add_tree(BuildKey& key, const TreeParams& p, double voxel) {
   key.add(static_cast<int64_t>(p.mode))
@@ -129,7 +135,7 @@ void add_tree(BuildKey& key, const TreeParams& p, double voxel) {
       .add(p.max_radius)
       .add(p.min_radius);
   key.add(int64_t{p.fill_interior}).add(static_cast<int64_t>(p.max_leaves)).add(int64_t{p.branching});
-  key.add(voxel);
+  key.add(voxel).add(kDisplayAdaptivity).add(kPartVersion);
 }
 
 // Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
@@ -360,7 +366,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
         }
         classify_leaves(built.tree, *b.object_ls,
                         b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution().voxel);
-        built.display = whole ? b.world_mesh() : part_ls->to_mesh();
+        built.display = whole ? b.world_mesh() : part_ls->to_mesh(kDisplayAdaptivity);
         if (cache) cache->store(part_key.value(), built);
         cached = std::move(built);
       }

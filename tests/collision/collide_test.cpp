@@ -13,7 +13,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/spheretree/hierarchy.hpp"
-#include "collision/alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace cariesim {
 namespace {

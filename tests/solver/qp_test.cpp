@@ -12,57 +12,7 @@
 #include <random>
 #include <vector>
 
-// Allocation counter: every global operator new, and (on glibc, outside sanitizer builds) malloc,
-// calloc and realloc too, since Eigen's dynamic storage comes from malloc.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-[[gnu::noinline]] void* operator new(std::size_t n) {
-  ++g_allocations;
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-[[gnu::noinline]] void* operator new[](std::size_t n) {
-  ++g_allocations;
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-[[gnu::noinline]] void* operator new(std::size_t n, std::align_val_t al) {
-  ++g_allocations;
-  const std::size_t a = static_cast<std::size_t>(al);
-  if (void* p = std::aligned_alloc(a, (n + a - 1) / a * a)) return p;
-  throw std::bad_alloc();
-}
-[[gnu::noinline]] void* operator new[](std::size_t n, std::align_val_t al) { return operator new(n, al); }
-[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
-extern "C" {
-void* __libc_malloc(std::size_t n);
-void* __libc_calloc(std::size_t n, std::size_t size);
-void* __libc_realloc(void* p, std::size_t n);
-void* malloc(std::size_t n) noexcept {
-  ++g_allocations;
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t size) noexcept {
-  ++g_allocations;
-  return __libc_calloc(n, size);
-}
-void* realloc(void* p, std::size_t n) noexcept {
-  ++g_allocations;
-  return __libc_realloc(p, n);
-}
-}
-#endif
+#include "support/alloc_counter.hpp"
 
 namespace cariesim {
 namespace {
@@ -827,7 +777,7 @@ TEST(QpWarmStart, StaleKeysAreDroppedNotTrusted) {
 
 TEST(QpAllocation, SolvesAllocateNothing) {
   // Problems are built before counting; the solves alone run inside the counted window.
-  const long start = g_allocations.load();
+  const std::size_t start = test::allocation_count();
   Rng rng(61);
   std::vector<QpProblem> problems;
   for (int i = 0; i < 40; ++i) problems.push_back(shell_problem(rng, 8 + 2 * i, 0.3));
@@ -840,7 +790,7 @@ TEST(QpAllocation, SolvesAllocateNothing) {
   QpSolver solver;
   QpResult r;
   int optimal = 0;
-  const long before = g_allocations.load();
+  const std::size_t before = test::allocation_count();
   // The counter itself works: building the problem list above allocated.
   EXPECT_GT(before, start);
   for (int round = 0; round < 20; ++round) {
@@ -848,8 +798,7 @@ TEST(QpAllocation, SolvesAllocateNothing) {
       if (solver.solve(pb, r, round % 2 == 0) == QpStatus::Optimal) ++optimal;
     }
   }
-  const long after = g_allocations.load();
-  EXPECT_EQ(after - before, 0);
+  EXPECT_EQ(test::allocation_count() - before, 0u);
   EXPECT_GT(optimal, 0);
 }
 

@@ -1,3 +1,5 @@
+// Global replacements that count allocations: every form of operator new and, on glibc outside
+// sanitizer builds, malloc/calloc/realloc too (Eigen's dynamic storage comes from malloc).
 #include "support/alloc_counter.hpp"
 
 #include <atomic>
@@ -8,12 +10,43 @@ namespace {
 
 std::atomic<std::size_t> g_allocations{0};
 
+}  // namespace
+
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+extern "C" {
+void* __libc_malloc(std::size_t n);
+void* __libc_calloc(std::size_t n, std::size_t size);
+void* __libc_realloc(void* p, std::size_t n);
+void* malloc(std::size_t n) noexcept {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t size) noexcept {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t n) noexcept {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_realloc(p, n);
+}
+}
+namespace {
+void* raw_malloc(std::size_t n) { return __libc_malloc(n); }
+}  // namespace
+#else
+namespace {
+void* raw_malloc(std::size_t n) { return std::malloc(n); }
+}  // namespace
+#endif
+
+namespace {
+
 // Counts one allocation and takes the memory from malloc (aligned when asked).
 void* counted_alloc(std::size_t size, std::size_t align) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
   if (size == 0) size = 1;
   void* p = align > alignof(std::max_align_t) ? std::aligned_alloc(align, (size + align - 1) / align * align)
-                                              : std::malloc(size);
+                                              : raw_malloc(size);
   if (p == nullptr) throw std::bad_alloc();
   return p;
 }
@@ -34,7 +67,6 @@ std::size_t allocation_count() { return g_allocations.load(std::memory_order_rel
 
 }  // namespace cariesim::test
 
-// Global replacements: every form of new counts; every form of delete frees with free().
 void* operator new(std::size_t size) { return counted_alloc(size, 0); }
 void* operator new[](std::size_t size) { return counted_alloc(size, 0); }
 void* operator new(std::size_t size, std::align_val_t align) {

@@ -5,7 +5,7 @@
 
 namespace cariesim::test {
 
-/// Allocations made since the program started.
+/// Allocations (operator new, and malloc/calloc/realloc on glibc) since the program started.
 std::size_t allocation_count();
 
 }  // namespace cariesim::test
