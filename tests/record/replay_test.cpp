@@ -1,0 +1,140 @@
+// The replay device: recorded haptic poses on the servo clock (exact at sample times, linear/slerp
+// between them), velocities, buttons, the end of the recording, looping, the recorded graphic pose
+// for the ghost tool, and no allocation in read().
+#include "cariesim/record/replay.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cariesim/common/error.hpp"
+#include "record/record_support.hpp"
+#include "support/alloc_counter.hpp"
+
+namespace cariesim {
+namespace {
+
+constexpr double kRate = 1000.0;  // Hz
+constexpr std::size_t kCount = 300;
+
+Recording synthetic_recording(double first_t = 0.0) {
+  Recording r;
+  r.info = test::synthetic_session(kRate);
+  for (std::size_t i = 0; i < kCount; ++i) {
+    ServoSample s = test::synthetic_sample(i, kRate);
+    s.t += first_t;
+    r.samples.push_back(s);
+  }
+  return r;
+}
+
+double angle_between(const Quat& a, const Quat& b) { return a.angularDistance(b); }
+
+TEST(ReplayDevice, PlaysRecordedPosesAtSampleTimes) {
+  const Recording recording = synthetic_recording();
+  ReplayDevice device(recording);
+  for (std::size_t i = 0; i < kCount; i += 7) {
+    const double now = recording.samples[i].t;
+    const DeviceState state = device.read(now);
+    EXPECT_LT((state.pose.p - recording.samples[i].haptic.p).norm(), 1e-12) << i;
+    EXPECT_LT(angle_between(state.pose.q, recording.samples[i].haptic.q), 1e-9) << i;
+    EXPECT_EQ(state.buttons, recording.samples[i].buttons) << i;
+    EXPECT_TRUE(state.valid);
+    EXPECT_EQ(state.stamp, now);
+  }
+}
+
+TEST(ReplayDevice, InterpolatesBetweenSamples) {
+  const Recording recording = synthetic_recording();
+  ReplayDevice device(recording);
+  const std::size_t k = 123;
+  const ServoSample& a = recording.samples[k];
+  const ServoSample& b = recording.samples[k + 1];
+  const double now = a.t + 0.25 / kRate;
+  const DeviceState state = device.read(now);
+  EXPECT_LT((state.pose.p - (0.75 * a.haptic.p + 0.25 * b.haptic.p)).norm(), 1e-12);
+  // Slerp: a quarter of the way along the arc.
+  const double full = angle_between(a.haptic.q, b.haptic.q);
+  ASSERT_GT(full, 1e-6);
+  EXPECT_NEAR(angle_between(a.haptic.q, state.pose.q), 0.25 * full, 1e-9);
+  EXPECT_NEAR(angle_between(state.pose.q, b.haptic.q), 0.75 * full, 1e-9);
+  EXPECT_NEAR(state.pose.q.norm(), 1.0, 1e-12);
+  // The segment's velocity, mm/s and rad/s.
+  EXPECT_LT((state.velocity - (b.haptic.p - a.haptic.p) * kRate).norm(), 1e-6);
+  EXPECT_NEAR(state.angular_velocity.norm(), full * kRate, 1e-6);
+
+  // The ghost: the recorded graphic pose, interpolated the same way; the other fields from sample k.
+  const Pose ghost = device.recorded_graphic(now);
+  EXPECT_LT((ghost.p - (0.75 * a.graphic.p + 0.25 * b.graphic.p)).norm(), 1e-12);
+  const ServoSample recorded = device.recorded(now);
+  EXPECT_EQ(recorded.state, a.state);
+  EXPECT_EQ(recorded.force, a.force);
+  EXPECT_DOUBLE_EQ(recorded.t, now);
+}
+
+TEST(ReplayDevice, TimeGoingBackwardsAndRecordingsNotStartingAtZero) {
+  const Recording recording = synthetic_recording(5.0);
+  ReplayDevice device(recording);
+  EXPECT_DOUBLE_EQ(device.recording_time(0.0), 5.0);
+  const DeviceState late = device.read(0.250);
+  const DeviceState early = device.read(0.010);
+  EXPECT_LT((late.pose.p - recording.samples[250].haptic.p).norm(), 1e-9);
+  EXPECT_LT((early.pose.p - recording.samples[10].haptic.p).norm(), 1e-9);
+  EXPECT_GT(early.sequence, late.sequence);
+}
+
+TEST(ReplayDevice, EndsOrLoops) {
+  const Recording recording = synthetic_recording();
+  const double end = recording.samples.back().t;
+  ReplayDevice once(recording, false);
+  const DeviceState after = once.read(end + 1.0);
+  EXPECT_FALSE(after.valid) << "past the end the reading is invalid, so safety zeroes the force";
+  EXPECT_TRUE(once.finished(end + 1.0));
+  EXPECT_LT((after.pose.p - recording.samples.back().haptic.p).norm(), 1e-12) << "the last pose is held";
+
+  ReplayDevice looping(recording, true);
+  const double period = end + 1.0 / kRate;  // the recording plus one sample interval
+  for (const double now : {0.0105, 0.2}) {
+    const DeviceState first = looping.read(now);
+    const DeviceState again = looping.read(now + 2.0 * period);
+    EXPECT_TRUE(again.valid);
+    EXPECT_LT((first.pose.p - again.pose.p).norm(), 1e-9) << now;
+  }
+  EXPECT_FALSE(looping.finished(100.0));
+  EXPECT_EQ(looping.info().name, "replay");
+  EXPECT_FALSE(looping.info().renders_force);
+}
+
+TEST(ReplayDevice, ReadAllocatesNothing) {
+  ReplayDevice device(synthetic_recording(), true);
+  double sum = 0.0;
+  const std::size_t before = test::allocation_count();
+  for (int i = 0; i < 5000; ++i) sum += device.read(i * 1e-4).pose.p.x();
+  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_TRUE(std::isfinite(sum));
+}
+
+TEST(ReplayDevice, FromARecordedFile) {
+  test::ScratchDir dir("replay_file");
+  const auto file = dir / "session.db";
+  {
+    Recorder recorder(file, test::synthetic_session(kRate));
+    for (std::size_t i = 0; i < kCount; ++i)
+      ASSERT_TRUE(recorder.queue().push(test::synthetic_sample(i, kRate)));
+    recorder.stop();
+  }
+  const std::unique_ptr<Device> device = make_replay_device(file, false);
+  auto* replay = dynamic_cast<ReplayDevice*>(device.get());
+  ASSERT_NE(replay, nullptr);
+  EXPECT_EQ(replay->size(), kCount);
+  EXPECT_EQ(replay->session().scene, test::synthetic_session(kRate).scene);
+  const ServoSample expected = test::synthetic_sample(42, kRate);
+  EXPECT_LT((device->read(expected.t).pose.p - expected.haptic.p).norm(), 1e-12);
+  EXPECT_LT((replay->recorded_graphic(expected.t).p - expected.graphic.p).norm(), 1e-12);
+
+  EXPECT_THROW(make_replay_device(dir / "absent.db"), Error);
+  EXPECT_THROW(ReplayDevice(Recording{}), Error);
+}
+
+}  // namespace
+}  // namespace cariesim
