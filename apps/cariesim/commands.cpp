@@ -4,8 +4,9 @@
 
 namespace cariesim::cli {
 
-// Defined in the command files (tree_command.cpp, scene_command.cpp).
+// Defined in the command files (tree_command.cpp, scene_command.cpp, export_command.cpp).
 void register_tree(CLI::App& app, Registry& registry);
+void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
 int default_tree_report();
 
@@ -19,6 +20,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_sim(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
+  register_export(app, registry);
   // No subcommand: until the viewer exists, build the default scene and print its tree report.
   registry.set_default(default_tree_report);
 }
