@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
 #include <mutex>
 #include <optional>
@@ -27,6 +28,8 @@ namespace fs = std::filesystem;
 constexpr auto kIdleSleep = std::chrono::milliseconds(1);
 // s: sample times this close to a batch window's end count as past it (i / rate is not exact).
 constexpr double kTimeTolerance = 1e-9;
+// How often the checkpointer thread copies the WAL into the database file.
+constexpr auto kCheckpointInterval = std::chrono::milliseconds(250);
 
 // Options and session values the schema cannot hold are refused before anything is created.
 void check_arguments(const fs::path& file, const SessionInfo& info, const RecorderOptions& options) {
@@ -79,6 +82,7 @@ struct Recorder::Impl {
   void commit(std::atomic<uint64_t>& written);
   void finish(std::atomic<uint64_t>& written);
   void fail(const std::string& what, int rc);
+  void run_checkpoints();
   bool external_pending();
 
   fs::path file;
@@ -89,6 +93,10 @@ struct Recorder::Impl {
   std::vector<record::EventDeriver::Change> changes;  // scratch, reused every batch
 
   std::thread writer;
+  std::thread checkpointer;
+  std::mutex checkpoint_mutex;  // guards checkpoint_stop
+  std::condition_variable checkpoint_wake;
+  bool checkpoint_stop = false;
   std::atomic<bool> stop_requested{false};
   bool started = false;
   bool closed = false;
@@ -120,6 +128,9 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
           "cannot set synchronous");
   db.exec("PRAGMA application_id=" + std::to_string(record::kApplicationId), "cannot set the application id");
   db.exec("PRAGMA busy_timeout=1000", "cannot set the busy timeout");
+  // Checkpoints (copying the WAL into the file, with its fsync) run on their own thread, so a slow
+  // disk never stalls a commit and the crash window stays one batch.
+  db.exec("PRAGMA wal_autocheckpoint=0", "cannot turn off automatic checkpoints");
   if (options.max_bytes > 0) {
     int64_t page_size = 4096;
     {
@@ -308,6 +319,30 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
   if (db.close() != SQLITE_OK && !failed) fail("cannot close the database", SQLITE_ERROR);
 }
 
+// The checkpointer: a second connection that runs passive checkpoints (they never block the writer)
+// until stop(). Without it the WAL would only grow until the final checkpoint; that is all a failure
+// here costs, so it is logged, not reported as a recording failure.
+void Recorder::Impl::run_checkpoints() {
+  try {
+    record::Database connection(file, SQLITE_OPEN_READWRITE);
+    connection.exec("PRAGMA busy_timeout=100", "cannot set the busy timeout");
+    bool warned = false;
+    std::unique_lock lock(checkpoint_mutex);
+    while (!checkpoint_wake.wait_for(lock, kCheckpointInterval, [this] { return checkpoint_stop; })) {
+      lock.unlock();
+      const int rc =
+          sqlite3_wal_checkpoint_v2(connection.get(), nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
+      if (rc != SQLITE_OK && rc != SQLITE_BUSY && !warned) {
+        spdlog::warn("recorder: {}: checkpoint failed: {}", file.string(), connection.message());
+        warned = true;
+      }
+      lock.lock();
+    }
+  } catch (const std::exception& e) {
+    spdlog::warn("recorder: checkpoints stopped: {}", e.what());
+  }
+}
+
 // A failure ends the writing (the committed prefix stays valid): roll back, log once, and publish
 // the reason for the UI; later samples are counted as discarded.
 void Recorder::Impl::fail(const std::string& what, int rc) {
@@ -356,11 +391,19 @@ void Recorder::start() {
   if (impl_->started || impl_->closed) return;
   impl_->started = true;
   impl_->writer = std::thread([this] { impl_->run(*queue_, written_); });
+  impl_->checkpointer = std::thread([this] { impl_->run_checkpoints(); });
 }
 
 void Recorder::stop() {
   if (!impl_ || impl_->closed) return;
   if (!impl_->started) start();
+  // The checkpointer first, so the writer's final checkpoint has the file to itself.
+  {
+    std::lock_guard lock(impl_->checkpoint_mutex);
+    impl_->checkpoint_stop = true;
+  }
+  impl_->checkpoint_wake.notify_all();
+  if (impl_->checkpointer.joinable()) impl_->checkpointer.join();
   impl_->stop_requested.store(true, std::memory_order_release);
   if (impl_->writer.joinable()) impl_->writer.join();
   impl_->closed = true;
