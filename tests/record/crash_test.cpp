@@ -1,12 +1,16 @@
 // Crash safety (issue 5 acceptance): "killing the process with SIGKILL while recording loses at most
-// the last 100 ms of samples". A forked child records a synthetic stream through the real Recorder,
-// fed by a thread that behaves like the servo loop (absolute deadlines at the servo rate, one
-// non-blocking push per cycle) and publishes the index of the last sample it pushed in shared
-// memory. The parent kills it with SIGKILL at a random moment after a second or so, reopens the
-// database (SQLite recovers the WAL) and checks that the stored stream is continuous from the first
-// sample to the last stored one and that the last stored one is within 100 ms of the last pushed.
+// the last 100 ms of samples". A child process (this test executable again, running only the
+// disabled test below) records a synthetic stream through the real Recorder, fed by a thread that
+// behaves like the servo loop (absolute deadlines at the servo rate, one non-blocking push per
+// cycle), and publishes the index of the last sample it pushed in a memory-mapped file. The parent
+// kills it with SIGKILL at a random moment after a second or so, reopens the database (SQLite
+// recovers the WAL) and checks that the stored stream is continuous from the first sample to the
+// last stored one, and that the last stored one is within 100 ms of the last one pushed. The child
+// is spawned (not forked), a fresh process as the real program would be.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,19 +18,25 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <thread>
+#include <vector>
 
 #include "cariesim/record/recorder.hpp"
 #include "record/record_support.hpp"
+
+extern char** environ;
 
 namespace cariesim {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// What the child shares with the parent (an anonymous shared mapping).
+// What the child shares with the parent (a small file both map).
 struct Shared {
   std::atomic<int64_t> pushed{-1};  // index of the last sample pushed
   std::atomic<int64_t> refused{0};  // pushes refused because the queue was full
@@ -34,6 +44,20 @@ struct Shared {
   char error[256] = {};
 };
 static_assert(std::atomic<int64_t>::is_always_lock_free, "shared-memory counters must be lock-free");
+
+// The child's environment: the database, the shared file, the rate (Hz).
+constexpr const char* kChildDb = "CARIESIM_CRASH_CHILD_DB";
+constexpr const char* kChildShared = "CARIESIM_CRASH_CHILD_SHARED";
+constexpr const char* kChildRate = "CARIESIM_CRASH_CHILD_RATE";
+
+// Maps the shared file (made by the parent with the right size); nullptr on failure.
+Shared* map_shared(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) return nullptr;
+  void* memory = mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  ::close(fd);
+  return memory == MAP_FAILED ? nullptr : static_cast<Shared*>(memory);
+}
 
 // The child: record until killed (or give up after 30 s). Never returns into the test framework.
 [[noreturn]] void record_until_killed(const std::filesystem::path& file, double rate, Shared* shared) {
@@ -64,24 +88,62 @@ static_assert(std::atomic<int64_t>::is_always_lock_free, "shared-memory counters
   _exit(4);
 }
 
+// Starts this executable again running only the child test, its output into `log`; -1 on failure.
+pid_t spawn_child(const std::filesystem::path& file, const std::filesystem::path& shared, double rate,
+                  const std::filesystem::path& log) {
+  std::vector<std::string> env_text;
+  for (char** e = environ; *e != nullptr; ++e) env_text.emplace_back(*e);
+  env_text.push_back(std::string(kChildDb) + "=" + file.string());
+  env_text.push_back(std::string(kChildShared) + "=" + shared.string());
+  env_text.push_back(std::string(kChildRate) + "=" + std::to_string(rate));
+  std::vector<char*> envp;
+  for (std::string& e : env_text) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  std::string exe = "/proc/self/exe";
+  std::string filter = "--gtest_filter=RecorderCrash.DISABLED_ChildRecordsUntilKilled";
+  std::string disabled = "--gtest_also_run_disabled_tests";
+  std::vector<char*> argv = {exe.data(), filter.data(), disabled.data(), nullptr};
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  EXPECT_EQ(rc, 0) << "cannot spawn the child: " << std::strerror(rc);
+  return rc == 0 ? pid : -1;
+}
+
+std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 struct RunResult {
   int64_t pushed = -1;   // last sample index pushed when killed
   int64_t stored = -1;   // last sample index in the database
   double lost_ms = 0.0;  // ms of sample time lost
 };
 
-// One run: fork, wait until recording, sleep `kill_after`, SIGKILL, then check the file.
+// One run: spawn, wait until recording, sleep `kill_after` (s), SIGKILL, then check the file.
 RunResult kill_and_check(const std::filesystem::path& file, double rate, double kill_after) {
   RunResult result;
-  void* memory = mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-  EXPECT_NE(memory, MAP_FAILED);
-  if (memory == MAP_FAILED) return result;
-  auto* shared = new (memory) Shared;
-  std::fflush(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) record_until_killed(file, rate, shared);
-  EXPECT_GT(pid, 0) << "fork failed";
-  if (pid < 0) return result;
+  const std::filesystem::path shared_path = file.string() + ".shared";
+  const std::filesystem::path log = file.string() + ".log";
+  std::ofstream(shared_path, std::ios::binary)
+      .write(std::string(sizeof(Shared), '\0').data(), sizeof(Shared));
+  Shared* shared = map_shared(shared_path);
+  EXPECT_NE(shared, nullptr) << "cannot map " << shared_path;
+  if (shared == nullptr) return result;
+  new (shared) Shared;
+  const pid_t pid = spawn_child(file, shared_path, rate, log);
+  if (pid < 0) {
+    munmap(shared, sizeof(Shared));
+    return result;
+  }
 
   // Wait for the child to record (or to fail), then let it run and kill it.
   const auto give_up = Clock::now() + std::chrono::seconds(20);
@@ -100,10 +162,11 @@ RunResult kill_and_check(const std::filesystem::path& file, double rate, double 
     waitpid(pid, &status, 0);
   }
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)
-      << "child ended otherwise: " << shared->error;
+      << "child ended otherwise: " << shared->error << "\n"
+      << read_text(log);
   EXPECT_EQ(shared->refused.load(), 0) << "the writer fell behind until the queue was full";
   result.pushed = shared->pushed.load(std::memory_order_acquire);
-  munmap(memory, sizeof(Shared));
+  munmap(shared, sizeof(Shared));
 
   // Reopen (WAL recovery) and check the stream: every sample from 0 to the last stored, in order and
   // exactly as pushed.
@@ -124,6 +187,18 @@ RunResult kill_and_check(const std::filesystem::path& file, double rate, double 
   return result;
 }
 
+// The child process's part; disabled, so it only runs when the test below starts it.
+TEST(RecorderCrash, DISABLED_ChildRecordsUntilKilled) {
+  const char* file = std::getenv(kChildDb);
+  const char* shared_path = std::getenv(kChildShared);
+  const char* rate = std::getenv(kChildRate);
+  if (file == nullptr || shared_path == nullptr || rate == nullptr)
+    GTEST_SKIP() << "runs only as the crash test's child process";
+  Shared* shared = map_shared(shared_path);
+  ASSERT_NE(shared, nullptr) << "cannot map " << shared_path;
+  record_until_killed(file, std::strtod(rate, nullptr), shared);
+}
+
 TEST(RecorderCrash, SigkillLosesAtMostTheLast100Milliseconds) {
   test::ScratchDir dir("crash");
   std::random_device entropy;
@@ -132,7 +207,7 @@ TEST(RecorderCrash, SigkillLosesAtMostTheLast100Milliseconds) {
   std::uniform_real_distribution<double> kill_after(1.0, 2.0);  // s
   std::printf("kill moments drawn with seed %u\n", seed);
   struct Plan {
-    double rate;
+    double rate;  // Hz
     int runs;
   };
   int run = 0;
@@ -144,7 +219,8 @@ TEST(RecorderCrash, SigkillLosesAtMostTheLast100Milliseconds) {
       std::printf(
           "run %d: %.0f Hz, killed %.3f s after start: pushed up to t = %.4f s, stored up to t = %.4f s, "
           "lost %.1f ms\n",
-          run, plan.rate, after, r.pushed / plan.rate, r.stored / plan.rate, r.lost_ms);
+          run, plan.rate, after, static_cast<double>(r.pushed) / plan.rate,
+          static_cast<double>(r.stored) / plan.rate, r.lost_ms);
       EXPECT_GE(r.stored, 0) << "run " << run;
       EXPECT_GE(r.pushed, r.stored) << "run " << run;
       EXPECT_LE(r.lost_ms, 100.0) << "run " << run << ": more than the last 100 ms lost";
