@@ -169,8 +169,8 @@ void put_sample(fmt::memory_buffer& b, const ServoSample& s) {
   b.append(std::string_view(state_name(s.state)));
   next(s.depth);
   next(static_cast<unsigned>(s.contacts));
-  next(static_cast<int>(s.lesion));
   next(s.step_us);
+  next(static_cast<int>(s.lesion));
   next(s.soft_tissue_force);
   next(s.step_flags);
   next(s.safety_flags);

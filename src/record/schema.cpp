@@ -77,8 +77,8 @@ void bind_sample(Statement& insert, int64_t id, const ServoSample& s) {
   insert.bind(i++, static_cast<int64_t>(s.state));
   insert.bind(i++, static_cast<double>(s.depth));
   insert.bind(i++, static_cast<int64_t>(s.contacts));
-  insert.bind(i++, static_cast<int64_t>(s.lesion));
   insert.bind(i++, static_cast<double>(s.step_us));
+  insert.bind(i++, static_cast<int64_t>(s.lesion));
   insert.bind(i++, static_cast<double>(s.soft_tissue_force));
   insert.bind(i++, static_cast<int64_t>(s.step_flags));
   insert.bind(i++, static_cast<int64_t>(s.safety_flags));
@@ -105,8 +105,8 @@ ServoSample read_sample(const Statement& row) {
   s.state = state >= 0 && state <= 3 ? static_cast<InteractionState>(state) : InteractionState::Free;
   s.depth = static_cast<float>(row.real(i++));
   s.contacts = static_cast<uint16_t>(row.integer(i++));
-  s.lesion = static_cast<int8_t>(row.integer(i++));
   s.step_us = static_cast<float>(row.real(i++));
+  s.lesion = static_cast<int8_t>(row.integer(i++));
   s.soft_tissue_force = static_cast<float>(row.real(i++));
   s.step_flags = static_cast<uint32_t>(row.integer(i++));
   s.safety_flags = static_cast<uint32_t>(row.integer(i++));

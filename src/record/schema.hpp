@@ -25,7 +25,7 @@ inline constexpr std::array<const char*, 31> kSampleColumns = {
     "fx",         "fy",           "fz",
     "tx",         "ty",           "tz",
     "state",      "depth",        "contacts",
-    "lesion",     "step_us",      "soft_tissue_force",
+    "step_us",    "lesion",       "soft_tissue_force",
     "step_flags", "safety_flags", "overrun",
     "buttons"};
 

@@ -148,8 +148,8 @@ ServoSample parse_sample(const std::vector<std::string>& f) {
   EXPECT_EQ(state, state_name(s.state));
   s.depth = as_float(f[i++]);
   s.contacts = static_cast<uint16_t>(as_int(f[i++]));
-  s.lesion = static_cast<int8_t>(as_int(f[i++]));
   s.step_us = as_float(f[i++]);
+  s.lesion = static_cast<int8_t>(as_int(f[i++]));
   s.soft_tissue_force = as_float(f[i++]);
   s.step_flags = static_cast<uint32_t>(as_int(f[i++]));
   s.safety_flags = static_cast<uint32_t>(as_int(f[i++]));
@@ -222,7 +222,7 @@ TEST(Export, RoundTripsEveryField) {
                                             "fx",         "fy",           "fz",
                                             "tx",         "ty",           "tz",
                                             "state",      "depth",        "contacts",
-                                            "lesion",     "step_us",      "soft_tissue_force",
+                                            "step_us",    "lesion",       "soft_tissue_force",
                                             "step_flags", "safety_flags", "overrun",
                                             "buttons"}));
   for (std::size_t i = 0; i < stream.size(); ++i) {
