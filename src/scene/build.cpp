@@ -125,7 +125,7 @@ void add_lesion(BuildKey& key, const LesionShape& s) {
 // to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
 constexpr double kDisplayAdaptivity = 0.1;
 // Bumped whenever the tree builders or the part building change what a cached part holds.
-constexpr int64_t kPartVersion = 2;
+constexpr int64_t kPartVersion = 5;
 
 // Adds tree parameters and the authored voxel (-1: chosen from the surface and parameters) to a key.
 void add_tree(BuildKey& key, const TreeParams& p, double voxel) {

@@ -71,14 +71,15 @@ SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params, co
   if (shape.empty()) return {};
   SphereTree tree = params.mode == TreeMode::Octree ? detail::build_octree_tree(shape, params, progress)
                                                     : detail::build_tight_tree(shape, params, progress);
-  set_leaf_normals(tree, shape);
+  set_leaf_tangents(tree, shape);
   return tree;
 }
 
-// The outward normal of the surface each surface leaf is tangent to: the unit gradient of the solid's
-// distance at the leaf's centre (a leaf's nearest surface point lies along it). Interior fillers keep
-// a zero normal.
-void set_leaf_normals(SphereTree& tree, const LevelSet& shape) {
+// Surface leaves without tangents from their builder (the octree's cells) get one: the unit gradient
+// of the solid's distance at their centre (a leaf's nearest surface point lies along it). Interior
+// fillers have none. The tight builder records the surfaces each sphere actually touches, which stays
+// right at an edge or in a thin layer, where the gradient at the centre points along a bisector.
+void set_leaf_tangents(SphereTree& tree, const LevelSet& shape) {
   if (tree.empty()) return;
   constexpr uint32_t kSurface = kLeafOnExposedSurface | kLeafOnLesionWall;
   double max_radius = 0.0;
@@ -86,17 +87,24 @@ void set_leaf_normals(SphereTree& tree, const LevelSet& shape) {
     if (tree.nodes[node].flags & kSurface) max_radius = std::max(max_radius, double(tree.nodes[node].radius));
   const detail::DistanceField field(shape, max_radius + 2.0 * shape.voxel_size());
   detail::DistanceField::Probe probe(field);
-  tree.leaf_normal.assign(tree.leaf_nodes.size(), Vec3f::Zero());
+  tree.leaf_tangents.resize(tree.leaf_nodes.size());
   for (std::size_t i = 0; i < tree.leaf_nodes.size(); ++i) {
     const SphereNode& node = tree.nodes[tree.leaf_nodes[i]];
-    if (!(node.flags & kSurface)) continue;
+    LeafTangents& t = tree.leaf_tangents[i];
+    if (!(node.flags & kSurface) || t.count > 0) continue;
     const Vec3 g = probe.gradient(node.center.cast<double>());
-    if (g.allFinite() && g.norm() > 0.5) tree.leaf_normal[i] = g.normalized().cast<float>();
+    if (!(g.allFinite() && g.norm() > 0.5)) continue;
+    t.normal[0] = g.normalized().cast<float>();
+    t.count = 1;
   }
 }
 
-// A leaf touches the outer surface when its sphere reaches within `touch_mm` of it; otherwise a leaf
-// built on its part's surface lies on a lesion wall, and a filler stays interior.
+// Each tangent of a leaf lies either on the outer surface or on an internal boundary (a lesion wall),
+// judged at its tangent point (centre + radius along the normal): at the rim of a lesion a wall leaf may
+// reach the outer surface while being tangent to the wall. A leaf with any tangent on the outer surface
+// is exposed, one with any tangent inside is on a lesion wall, both at once is possible (a sphere
+// spanning a thin lesion from its top to its floor). Without tangents, a leaf built on its part's
+// surface counts as exposed when its sphere reaches within `touch_mm` of the outer surface.
 void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm) {
   if (tree.empty()) return;
   const double reach = std::max(touch_mm, 0.0);
@@ -105,19 +113,30 @@ void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm) {
   const detail::DistanceField field(outer, max_radius + reach);
   detail::DistanceField::Probe probe(field);
   tree.leaf_depth.resize(tree.leaf_nodes.size());
+  tree.leaf_tangents.resize(tree.leaf_nodes.size());
   for (std::size_t i = 0; i < tree.leaf_nodes.size(); ++i) {
     SphereNode& node = tree.nodes[tree.leaf_nodes[i]];
-    const double depth = -probe.distance(node.center.cast<double>());
+    LeafTangents& tangents = tree.leaf_tangents[i];
+    const Vec3 c = node.center.cast<double>();
+    const double depth = -probe.distance(c);
     tree.leaf_depth[i] = static_cast<float>(depth);
     const bool was_surface = (node.flags & (kLeafOnExposedSurface | kLeafOnLesionWall)) != 0;
-    uint32_t flags = node.flags & ~(kLeafOnExposedSurface | kLeafOnLesionWall | kLeafInterior);
-    if (depth - node.radius <= reach) {
-      flags |= kLeafOnExposedSurface;
-    } else if (was_surface) {
-      flags |= kLeafOnLesionWall;
-    } else {
-      flags |= kLeafInterior;
+    bool outer_touch = false, inner_touch = false;
+    tangents.wall_mask = 0;
+    for (int k = 0; k < tangents.count; ++k) {
+      const Vec3 point = c + tangents.normal[k].cast<double>() * node.radius;
+      if (-probe.distance(point) <= reach) {
+        outer_touch = true;
+      } else {
+        inner_touch = true;
+        tangents.wall_mask |= static_cast<uint8_t>(1u << k);
+      }
     }
+    if (tangents.count == 0 && was_surface) (depth - node.radius <= reach ? outer_touch : inner_touch) = true;
+    uint32_t flags = node.flags & ~(kLeafOnExposedSurface | kLeafOnLesionWall | kLeafInterior);
+    if (was_surface && outer_touch) flags |= kLeafOnExposedSurface;
+    if (was_surface && inner_touch) flags |= kLeafOnLesionWall;
+    if (!(flags & (kLeafOnExposedSurface | kLeafOnLesionWall))) flags |= kLeafInterior;
     node.flags = flags;
   }
 }

@@ -45,6 +45,10 @@ constexpr double kFillerMarginTolerances = 2.0;
 constexpr int kPlacementAttempts = 3;
 
 // One surface sample: a point on the zero set and the outward unit normal there.
+// A covered sample whose normal turns further than this from the seed's (cos 30 degrees) makes a
+// second tangent of the sphere.
+constexpr double kSecondTangentCos = 0.866;
+
 struct Sample {
   Vec3 x;
   Vec3 n;
@@ -161,15 +165,30 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
       ++unplaced;
       continue;
     }
-    // Every sample within the tolerance of the sphere is covered.
+    // Every sample within the tolerance of the sphere is covered. The sphere is tangent to the
+    // surface at its seed sample; if it also touches a differently facing part of the surface (the
+    // other face at an edge, the floor of a thin layer), that is its second tangent.
+    const Vec3 seed_normal = s.n.normalized();
+    double least_aligned = kSecondTangentCos;
+    Vec3 second = Vec3::Zero();
     for (std::size_t j : near) {
-      if ((raw[j] - c).norm() - r <= tol) covered[j] = 1;
+      if ((raw[j] - c).norm() - r > tol) continue;
+      covered[j] = 1;
+      const Vec3 n = probe.gradient(raw[j]);
+      const double alignment = n.dot(seed_normal);
+      if (n.norm() > 0.5 && alignment < least_aligned) least_aligned = alignment, second = n.normalized();
     }
     LeafSphere leaf{};
     leaf.center = c.cast<float>();
     leaf.radius = static_cast<float>(r);
     leaf.flags = kLeafOnExposedSurface;
     leaf.depth = static_cast<float>(-probe.distance(c));
+    leaf.tangents.normal[0] = seed_normal.cast<float>();
+    leaf.tangents.count = 1;
+    if (second.squaredNorm() > 0.5) {
+      leaf.tangents.normal[1] = second.cast<float>();
+      leaf.tangents.count = 2;
+    }
     leaves.push_back(leaf);
   }
   if (capped) {

@@ -6,7 +6,8 @@
 //   node count (u64) + nodes (32 bytes each: centre 3 x f32, radius f32, first u32, count u16,
 //   material u16, leaf u32, flags u32),
 //   leaf count (u64) + leaf_nodes (u32 each) + leaf_depth (f32 each),
-//   leaf count (u64) + leaf_normal (3 x f32 each; version 2),
+//   leaf count (u64) + leaf tangents (2 normals of 3 x f32, count u8, wall mask u8, 2 bytes zero:
+//   28 bytes each; since version 3),
 //   vertex count (u64) + vertices (3 x f32 each), triangle count (u64) + triangles (3 x u32 each),
 //   FNV-1a 64 of every byte before it (u64).
 // Anything that does not read back exactly (short file, wrong magic, version or key, counts that
@@ -50,8 +51,17 @@ struct StoredNode {
 };
 static_assert(sizeof(StoredNode) == 32, "stored nodes are 32 bytes");
 
+// A leaf's tangents as stored.
+struct StoredTangents {
+  float normal[2][3] = {{0, 0, 0}, {0, 0, 0}};
+  uint8_t count = 0;
+  uint8_t wall_mask = 0;
+  uint8_t pad[2] = {0, 0};
+};
+static_assert(sizeof(StoredTangents) == 28, "stored tangents are 28 bytes");
+
 constexpr char kMagic[8] = {'C', 'S', 'T', 'R', 'E', 'E', '\r', '\n'};
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
 constexpr uint64_t kFnvOffset = 1469598103934665603ull;
 constexpr uint64_t kFnvPrime = 1099511628211ull;
 
@@ -142,9 +152,10 @@ bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
   tree.mode = static_cast<TreeMode>(mode);
   tree.levels = levels;
   std::vector<StoredNode> nodes;
-  std::vector<std::array<float, 3>> vertices, normals;
+  std::vector<std::array<float, 3>> vertices;
+  std::vector<StoredTangents> tangents;
   if (!in.get_array(nodes) || !in.get_array(tree.leaf_nodes) || !in.get_array(tree.leaf_depth) ||
-      !in.get_array(normals) || normals.size() != tree.leaf_nodes.size() || !in.get_array(vertices) || !in.get_array(part.display.triangles) || in.position() != body) {
+      !in.get_array(tangents) || tangents.size() != tree.leaf_nodes.size() || !in.get_array(vertices) || !in.get_array(part.display.triangles) || in.position() != body) {
     return false;
   }
   tree.nodes.resize(nodes.size());
@@ -159,8 +170,15 @@ bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
     n.leaf = s.leaf;
     n.flags = s.flags;
   }
-  tree.leaf_normal.resize(normals.size());
-  for (std::size_t i = 0; i < normals.size(); ++i) tree.leaf_normal[i] = Vec3f(normals[i][0], normals[i][1], normals[i][2]);
+  tree.leaf_tangents.resize(tangents.size());
+  for (std::size_t i = 0; i < tangents.size(); ++i) {
+    const StoredTangents& t = tangents[i];
+    if (t.count > 2) return false;
+    LeafTangents& out = tree.leaf_tangents[i];
+    for (int k = 0; k < 2; ++k) out.normal[k] = Vec3f(t.normal[k][0], t.normal[k][1], t.normal[k][2]);
+    out.count = t.count;
+    out.wall_mask = t.wall_mask;
+  }
   part.display.vertices.resize(vertices.size());
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     part.display.vertices[i] = Vec3f(vertices[i][0], vertices[i][1], vertices[i][2]);
@@ -256,12 +274,15 @@ void TreeCache::store(uint64_t key, const CachedPart& part) const {
   out.put_array(nodes);
   out.put_array(part.tree.leaf_nodes);
   out.put_array(part.tree.leaf_depth);
-  std::vector<std::array<float, 3>> normals(part.tree.leaf_nodes.size(), {0.0f, 0.0f, 0.0f});
-  for (std::size_t i = 0; i < normals.size() && i < part.tree.leaf_normal.size(); ++i) {
-    const Vec3f& n = part.tree.leaf_normal[i];
-    normals[i] = {n.x(), n.y(), n.z()};
+  std::vector<StoredTangents> tangents(part.tree.leaf_nodes.size());
+  for (std::size_t i = 0; i < tangents.size() && i < part.tree.leaf_tangents.size(); ++i) {
+    const LeafTangents& t = part.tree.leaf_tangents[i];
+    for (int k = 0; k < 2; ++k)
+      for (int a = 0; a < 3; ++a) tangents[i].normal[k][a] = t.normal[k][a];
+    tangents[i].count = t.count;
+    tangents[i].wall_mask = t.wall_mask;
   }
-  out.put_array(normals);
+  out.put_array(tangents);
   std::vector<std::array<float, 3>> vertices(part.display.vertices.size());
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     const Vec3f& v = part.display.vertices[i];

@@ -195,7 +195,7 @@ SphereTree build_hierarchy(std::span<const LeafSphere> leaves, int branching) {
   tree.nodes.reserve(2 * static_cast<std::size_t>(n));
   tree.leaf_nodes.assign(n, 0);
   tree.leaf_depth.assign(n, 0.0f);
-  tree.leaf_normal.assign(n, Vec3f::Zero());
+  tree.leaf_tangents.assign(n, LeafTangents{});
 
   // Top-down, breadth first: each task's children are appended together, so they are contiguous
   // and every level is stored before the next.
@@ -220,7 +220,7 @@ SphereTree build_hierarchy(std::span<const LeafSphere> leaves, int branching) {
       node.flags = l.flags;
       tree.leaf_nodes[li] = task.node;
       tree.leaf_depth[li] = l.depth;
-      tree.leaf_normal[li] = l.normal;
+      tree.leaf_tangents[li] = l.tangents;
       continue;
     }
     // An inner node: cut its range into up to `branching` groups, one child each.

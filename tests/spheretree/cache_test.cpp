@@ -38,8 +38,12 @@ class CacheTest : public ::testing::Test {
                         static_cast<uint16_t>(i % 5), (i % 3 == 0) ? kLeafInterior : kLeafOnExposedSurface,
                         0.1f * (i % 7)});
     }
-    for (std::size_t i = 0; i < leaves.size(); ++i)
-      leaves[i].normal = Vec3f(std::cos(0.1f * i), std::sin(0.1f * i), 0.0f);
+    for (std::size_t i = 0; i < leaves.size(); ++i) {
+      leaves[i].tangents.normal[0] = Vec3f(std::cos(0.1f * i), std::sin(0.1f * i), 0.0f);
+      leaves[i].tangents.normal[1] = Vec3f(0.0f, 0.0f, i % 2 ? 1.0f : -1.0f);
+      leaves[i].tangents.count = static_cast<uint8_t>(i % 3);
+      leaves[i].tangents.wall_mask = static_cast<uint8_t>(i % 4);
+    }
     CachedPart part;
     part.tree = build_hierarchy(leaves, 4);
     part.tree.mode = TreeMode::Tight;
@@ -78,7 +82,12 @@ void expect_same(const CachedPart& a, const CachedPart& b) {
   }
   EXPECT_EQ(a.tree.leaf_nodes, b.tree.leaf_nodes);
   EXPECT_EQ(a.tree.leaf_depth, b.tree.leaf_depth);
-  EXPECT_EQ(a.tree.leaf_normal, b.tree.leaf_normal);
+  ASSERT_EQ(a.tree.leaf_tangents.size(), b.tree.leaf_tangents.size());
+  for (std::size_t i = 0; i < a.tree.leaf_tangents.size(); ++i) {
+    EXPECT_EQ(a.tree.leaf_tangents[i].normal, b.tree.leaf_tangents[i].normal);
+    EXPECT_EQ(a.tree.leaf_tangents[i].count, b.tree.leaf_tangents[i].count);
+    EXPECT_EQ(a.tree.leaf_tangents[i].wall_mask, b.tree.leaf_tangents[i].wall_mask);
+  }
   EXPECT_EQ(a.tree.mode, b.tree.mode);
   EXPECT_EQ(a.tree.levels, b.tree.levels);
   EXPECT_EQ(a.display.vertices, b.display.vertices);

@@ -51,16 +51,18 @@ LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams&
 SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params,
                              const ProgressFn& progress = {});
 
-/// Sets SphereTree::leaf_normal from the solid's distance field (build_sphere_tree does this).
-void set_leaf_normals(SphereTree& tree, const LevelSet& shape);
+/// Gives surface leaves that have no tangents one from the solid's distance field (build_sphere_tree
+/// does this for the octree; the tight builder records the surfaces each sphere touches).
+void set_leaf_tangents(SphereTree& tree, const LevelSet& shape);
 
 /// Builds the tool's tree from its sphere chain (leaves in chain order, tip first).
 SphereTree build_tool_tree(const std::vector<ToolSphere>& spheres, int branching = 4);
 
-/// Sets leaf_depth (depth of each leaf centre below `outer`'s surface, mm) and the surface flags:
-/// kLeafOnExposedSurface when the leaf reaches within `touch_mm` of `outer`'s zero set,
-/// kLeafOnLesionWall when it does not but was built on its own part's surface (an internal
-/// boundary), kLeafInterior otherwise (fillers).
+/// Sets leaf_depth (depth of each leaf centre below `outer`'s surface, mm), marks each leaf tangent as
+/// lying on `outer`'s surface or on an internal boundary (LeafTangents::wall_mask; judged at the
+/// tangent point within `touch_mm`), and flags the leaf kLeafOnExposedSurface when some tangent lies on
+/// the outer surface, kLeafOnLesionWall when some lies on an internal boundary (both can hold), and
+/// kLeafInterior when it touches neither (fillers).
 void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm);
 
 /// Sets each leaf's material from a callback given the leaf centre (mm) and its depth (mm).

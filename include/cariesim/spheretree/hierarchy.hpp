@@ -17,7 +17,7 @@ struct LeafSphere {
   uint16_t material = 0;
   uint32_t flags = 0;    ///< LeafFlags
   float depth = 0.0f;    ///< mm below the outer surface
-  Vec3f normal = Vec3f::Zero();  ///< outward surface normal at the tangent point (zero = unknown)
+  LeafTangents tangents{};  ///< the surfaces the sphere is tangent to (none for fillers)
 };
 
 /// Builds a tree whose leaves are exactly `leaves` (leaf index i = leaves[i]). `branching` in [2, 8].

@@ -5,6 +5,7 @@
 /// (`first` .. `first + count`). Inner nodes bound their children; leaves carry a material index.
 /// The traversal touches only `SphereNode` (hot, 32 bytes); per-leaf extras live in separate arrays.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -29,22 +30,29 @@ static_assert(sizeof(SphereNode) == 32, "SphereNode is the hot traversal record;
 
 /// Per-leaf flag bits.
 enum LeafFlags : uint32_t {
-  kLeafOnExposedSurface = 1u << 0,  ///< tangent to the object's outer surface (not a lesion wall)
+  kLeafOnExposedSurface = 1u << 0,  ///< tangent to the object's outer surface
   kLeafOnLesionWall = 1u << 1,      ///< tangent to an internal boundary (healthy/caries interface)
   kLeafInterior = 1u << 2,          ///< filler sphere deep inside the object
 };
 
 enum class TreeMode : uint8_t { Tight, Octree };
 
+/// Where a leaf touches its solid's surface: up to two tangent points (a sphere in a thin layer touches
+/// its top and its floor; one at an edge touches both faces). Cold data, 28 bytes.
+struct LeafTangents {
+  std::array<Vec3f, 2> normal{Vec3f::Zero(), Vec3f::Zero()};  ///< unit outward normals at the tangent points
+  uint8_t count = 0;      ///< how many of `normal` are set (0 for interior fillers)
+  uint8_t wall_mask = 0;  ///< bit k: tangent k lies on an internal (lesion) boundary, not the outer surface
+};
+
 /// A built tree and what it took to build it.
 struct SphereTree {
   std::vector<SphereNode> nodes;       ///< node 0 is the root
   std::vector<uint32_t> leaf_nodes;    ///< leaf index -> node index
   std::vector<float> leaf_depth;       ///< mm, leaf index -> depth of the centre below the object's outer surface
-  /// leaf index -> unit outward normal of the surface the leaf is tangent to (the gradient of the
-  /// solid's signed distance at the centre); zero when unknown. Compliant contacts use it so that all
-  /// leaves of one flat patch push the same way.
-  std::vector<Vec3f> leaf_normal;
+  /// leaf index -> the surfaces the leaf is tangent to. Compliant contacts measure depth against the
+  /// tangent plane that faces the tool, so that all leaves of one flat patch push the same way.
+  std::vector<LeafTangents> leaf_tangents;
   TreeMode mode = TreeMode::Tight;
   int levels = 0;                      ///< depth of the deepest leaf + 1 (a lone root has 1 level)
 
