@@ -8,6 +8,7 @@
 // sink until the tissue's spring force λ = k·depth balances the coupling.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "render/internal.hpp"
 
@@ -55,17 +56,34 @@ PairGeometry pair_geometry(const Model& m, const StateImpl& s, const Pose& g, co
   PairGeometry out;
   out.lever = c_t - g.p;
 
-  // Compliant tissue, with the tool above the leaf's patch of surface: depth below that patch's
-  // plane. Every leaf of one flat patch then gives the same depth and normal, however many overlap,
-  // and the depth stays right when the tool sinks deeper than the leaf's centre.
+  // Compliant tissue, with the tool over one of the leaf's tangent patches: depth below that patch's
+  // plane, using the tangent that faces the tool. Every leaf of one flat patch then gives the same
+  // depth and normal, however many overlap, and the depth stays right when the tool sinks deeper
+  // than the leaf's centre.
+  // A caries tree's walls (its interface with healthy tissue) are not a surface the tool can meet
+  // (the healthy tree's walls there are): its leaves are measured against their exposed patches
+  // only, and a leaf with nothing but wall patches is marked `wall` and ignored.
   const Vec3 d = c_t - c_o;
-  if (!m.materials[node.material].rigid() && node.leaf < tree.leaf_normal.size()) {
-    const Vec3 n_s = tree.leaf_normal[node.leaf].cast<double>();
-    const double h = d.dot(n_s);
-    if (n_s.squaredNorm() > 0.5 && (d - h * n_s).norm() <= r_o) {
-      out.normal = n_s;
-      out.gap = h - r_o - r_t;
-      return out;
+  if (!m.materials[node.material].rigid() && node.leaf < tree.leaf_tangents.size()) {
+    const LeafTangents& t = tree.leaf_tangents[node.leaf];
+    const bool lesion = m.objects[p.object].lesion >= 0;
+    int best = -1;
+    double best_h = -std::numeric_limits<double>::infinity();
+    for (int k = 0; k < t.count; ++k) {
+      if (lesion && ((t.wall_mask >> k) & 1u)) continue;
+      const double h = d.dot(t.normal[k].cast<double>());
+      if (h > best_h) best_h = h, best = k;
+    }
+    out.wall = lesion && t.count > 0 && best < 0;
+    if (best >= 0) {
+      const Vec3 n_s = t.normal[best].cast<double>();
+      const double lateral = (d - best_h * n_s).norm();
+      if (lateral <= r_o) {
+        out.normal = n_s;
+        out.gap = best_h - r_o - r_t;
+        out.lateral = lateral;
+        return out;
+      }
     }
   }
 
@@ -94,9 +112,7 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
     const SphereNode& node = m.objects[p.object].tree.nodes[p.object_node];
     const Material& mat = m.materials[node.material];
     s.pair_region[i] = -1;
-    // A caries tree's internal walls (its interface with healthy tissue) are not a surface the tool
-    // can meet: the healthy tree's walls there are.
-    if (m.objects[p.object].lesion >= 0 && (node.flags & kLeafOnLesionWall)) continue;
+    if (s.geometry[i].wall) continue;  // see pair_geometry
     const Vec3& local = s.leaf_local[p.tool_leaf];
     int r = 0;
     for (; r < s.region_count; ++r) {
@@ -146,32 +162,15 @@ StateImpl::RowGroup* row_group(StateImpl& s, const PairRef& p, const Region& reg
 int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& flags) {
   int added = 0;
   ++s.row_stamp;
-  for (int k = 0; k < s.pair_count; ++k) {
-    const int i = s.order[k];
-    const int r = s.pair_region[i];
-    if (r < 0) continue;
-    const Region& reg = s.regions[r];
+  const auto add_row = [&](int i, int r, StateImpl::RowGroup* group) {
     const PairGeometry& geo = s.geometry[i];
     const PairRef& p = s.pairs[i];
-
-    // Compliant tissue: per region, only the deepest pair of each distinct surface direction, so that
-    // many overlapping spheres do not act as parallel springs. Rigid tissue: a few rows per
-    // (tool leaf, object) with distinct normals; the rest are redundant.
-    StateImpl::RowGroup* group = row_group(s, p, reg, r);
-    if (group != nullptr && !p.forced) {
-      const double cos_similar = reg.compliant ? kCompliantNormalCos : kRigidNormalCos;
-      bool similar = false;
-      for (int j = 0; j < group->count; ++j)
-        similar = similar || s.geometry[s.meta[group->rows[j]].pair].normal.dot(geo.normal) > cos_similar;
-      if (similar || group->count >= kMaxRowsPerLeafObject) continue;
-    }
-
     QpRow row;
     row.a.head<3>() = geo.normal;
     row.a.tail<3>() = geo.lever.cross(geo.normal);
     row.b = -geo.gap;
     const Material& mat = m.materials[m.objects[p.object].tree.nodes[p.object_node].material];
-    if (reg.compliant) {
+    if (s.regions[r].compliant) {
       row.compliance = 1.0 / mat.stiffness;
     } else if (hold_only) {
       row.b = std::min(row.b, 0.0);
@@ -179,12 +178,77 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     row.key = (uint64_t{p.object} << 48) ^ (uint64_t{p.tool_leaf} << 32) ^ p.object_node;
     if (!s.problem.add(row)) {
       flags |= kFlagQpRowsFull;
-      break;
+      return false;
     }
     const int index = s.problem.row_count - 1;
     s.meta[index] = RowMeta{RowKind::Contact, static_cast<int16_t>(r), -1, static_cast<int16_t>(i)};
     if (group != nullptr && group->count < 3) group->rows[group->count++] = static_cast<int16_t>(index);
     ++added;
+    return true;
+  };
+
+  // Pass 1, pairs from the deepest: rigid pairs get rows, a few per (tool leaf, object) with distinct
+  // normals (the rest are redundant). Compliant pairs elect, per region and distinct surface
+  // direction, one pair of the deepest tool leaf: the leaf whose tangent point lies nearest that tool
+  // leaf sideways, the best local estimate of the surface (so that many overlapping spheres do not
+  // act as parallel springs).
+  for (int k = 0; k < s.pair_count; ++k) {
+    const int i = s.order[k];
+    const int r = s.pair_region[i];
+    if (r < 0) continue;
+    const Region& reg = s.regions[r];
+    const PairRef& p = s.pairs[i];
+    StateImpl::RowGroup* group = row_group(s, p, reg, r);
+    if (reg.compliant) {
+      if (group == nullptr) continue;
+      int similar = -1;
+      for (int j = 0; j < group->count && similar < 0; ++j)
+        if (s.geometry[group->rows[j]].normal.dot(s.geometry[i].normal) > kCompliantNormalCos) similar = j;
+      if (similar >= 0) {
+        // Pairs come deepest first, so the elector's tool leaf is the deepest; among that leaf's
+        // pairs the patch nearest the tool sideways describes the surface best.
+        const int elector = group->rows[similar];
+        if (s.pairs[elector].tool_leaf == p.tool_leaf && s.geometry[i].lateral < s.geometry[elector].lateral)
+          group->rows[similar] = static_cast<int16_t>(i);  // a pair, not a row
+      } else if (group->count < kMaxRowsPerLeafObject) {
+        group->rows[group->count++] = static_cast<int16_t>(i);
+      }
+      continue;
+    }
+    if (group != nullptr && !p.forced) {
+      bool similar = false;
+      for (int j = 0; j < group->count; ++j)
+        similar = similar || s.geometry[s.meta[group->rows[j]].pair].normal.dot(s.geometry[i].normal) > kRigidNormalCos;
+      if (similar || group->count >= kMaxRowsPerLeafObject) continue;
+    }
+    if (!add_row(i, r, group)) return added;
+  }
+
+  // Pass 2, compliant regions: a solid's penetration is the distance to its nearest surface, so of
+  // the elected directions only those whose depth is within kCompliantDepthSlack of the shallowest
+  // push (a tool sunk in soft caries that meets a firmer wall is pushed back by the wall, not thrown
+  // up through the material above it). Directions not yet penetrated stay as constraints. Pairs
+  // measured sphere against sphere (interior fillers, or a tool beside every leaf's patch) only
+  // count when no surface patch lies over the tool: they catch a tool sunk deeper than the patches.
+  for (int r = 0; r < s.region_count; ++r) {
+    StateImpl::RowGroup& group = s.region_rows[r];
+    if (!s.regions[r].compliant || group.stamp != s.row_stamp) continue;
+    bool planar = false;
+    for (int j = 0; j < group.count; ++j) planar = planar || std::isfinite(s.geometry[group.rows[j]].lateral);
+    double shallowest = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < group.count; ++j) {
+      const PairGeometry& geo = s.geometry[group.rows[j]];
+      if (geo.gap < 0.0 && (!planar || std::isfinite(geo.lateral))) shallowest = std::min(shallowest, -geo.gap);
+    }
+    const int electors = group.count;
+    const std::array<int16_t, 3> pairs = group.rows;
+    group.count = 0;
+    for (int j = 0; j < electors; ++j) {
+      const PairGeometry& geo = s.geometry[pairs[j]];
+      if (planar && !std::isfinite(geo.lateral)) continue;
+      if (-geo.gap > shallowest + kCompliantDepthSlack) continue;
+      if (!add_row(pairs[j], r, nullptr)) return added;
+    }
   }
   return added;
 }

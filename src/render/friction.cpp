@@ -17,6 +17,7 @@ namespace cariesim::detail {
 namespace {
 
 constexpr double kMinNormalForce = 1e-6;  // N: below this a contact carries no friction
+constexpr double kRigidSlipStiffness = 1e3;  // N/mm: a rigid row's share of the slip stiffness
 
 // An orthonormal tangent pair for a unit normal.
 void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
@@ -126,14 +127,23 @@ int slip_anchors(const Model& m, StateImpl& s, const Pose& g, const Mat6& G, int
 
     // Slip: scale the tangential load onto the dynamic cone by moving the anchor toward where the
     // unconstrained tool would be. The load is linear in the anchor offset with the effective
-    // tangential stiffness of the coupling seen at this point (translation and rotation in series).
+    // tangential stiffness seen at this point: the coupling (translation and rotation in series) plus
+    // every loaded contact row that resists motion along the load (tissue stiffness, or
+    // kRigidSlipStiffness for rigid rows). Without the contacts' share a tool pressed sideways into
+    // stiff tissue would throw its anchor far past where the tissue lets it go.
     const double q_d = cone_measure(f_u, f_v, cone.mu_d_u, cone.mu_d_v);
     const double scale = std::isfinite(q_d) && q_d > 0.0 ? std::min(1.0, f_n / q_d) : 0.0;
     const double f_t_norm = f_t.norm();
     const Vec3 dir = f_t / f_t_norm;
     const Vec3 lever = g.q * a.point_local;
     const double k_t = G(0, 0), k_r = G(3, 3);
-    const double k_eff = 1.0 / (1.0 / k_t + lever.cross(dir).squaredNorm() / k_r);
+    double k_eff = 1.0 / (1.0 / k_t + lever.cross(dir).squaredNorm() / k_r);
+    for (int row = 0; row < s.problem.row_count; ++row) {
+      if (s.meta[row].kind != RowKind::Contact || s.result.lambda[row] <= 0.0) continue;
+      const QpRow& qr = s.problem.rows[row];
+      const double along = qr.a.head<3>().dot(dir);
+      k_eff += along * along * (qr.compliance > 0.0 ? 1.0 / qr.compliance : kRigidSlipStiffness);
+    }
     a.anchor -= (1.0 - scale) * f_t / k_eff;
     ++changed;
     ++slipped;

@@ -15,6 +15,7 @@ inline constexpr double kRegionRadius = 1.0;  ///< mm: tool leaves this close sh
 inline constexpr int kMaxRowsPerLeafObject = 3;  ///< rows per rigid (tool leaf, object) or compliant region
 inline constexpr double kRigidNormalCos = 0.97;     ///< rigid rows closer in direction than this are redundant
 inline constexpr double kCompliantNormalCos = 0.9;  ///< compliant rows closer than this would add stiffness
+inline constexpr double kCompliantDepthSlack = 0.05;  ///< mm: compliant directions this much deeper than the shallowest do not push
 
 /// 6-D difference (translation mm, rotation vector rad) that moves `from` onto `to`.
 Vec6 config_difference(const Pose& to, const Pose& from);

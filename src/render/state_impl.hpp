@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "cariesim/collision/collide.hpp"
@@ -27,9 +28,13 @@ struct PairRef {
 
 /// The geometry of a pair at one configuration.
 struct PairGeometry {
-  Vec3 normal;       ///< unit, object sphere centre -> tool sphere centre
+  Vec3 normal;       ///< unit: object sphere centre -> tool sphere centre, or the leaf's surface normal
   Vec3 lever;        ///< mm, tool sphere centre - tool-frame origin (world)
   double gap = 0.0;  ///< mm, negative = overlap
+  /// mm: for a compliant surface leaf measured against its tangent plane, how far the tool lies
+  /// sideways from the leaf's tangent point; +infinity for a sphere-against-sphere measure.
+  double lateral = std::numeric_limits<double>::infinity();
+  bool wall = false;  ///< a caries leaf with only wall patches (its interface with healthy tissue)
 };
 
 /// What a QP row stands for.

@@ -196,6 +196,9 @@ void tunnel_spheres(const Model& m, const StateImpl& s, TunnelSpheres& out) {
   out.active = t.lesion >= 0 && (s.interaction == InteractionState::Inserting ||
                                  s.interaction == InteractionState::Extracting);
   if (!out.active) return;
+  out.entry = t.entry;
+  out.axis = t.n;
+  out.max_depth = t.depth0 + t.max_depth;
   const double r_tip = m.tool.tip_radius;
   const Vec3 tip = t.entry + t.n * t.depth;
   out.centers[0] = tip + t.n * (r_tip + kBottomRadius);

@@ -31,7 +31,8 @@ std::vector<LeafSphere> slab(const SlabSpec& spec, const std::function<uint16_t(
       leaf.material = material_of(Vec3(x, y, spec.top));
       leaf.flags = kLeafOnExposedSurface;
       leaf.depth = static_cast<float>(spec.radius);
-      leaf.normal = Vec3f::UnitZ();
+      leaf.tangents.normal[0] = Vec3f::UnitZ();
+      leaf.tangents.count = 1;
       leaves.push_back(leaf);
     }
   }

@@ -45,6 +45,9 @@ inline constexpr int kMaxReportedContacts = 16;
 struct TunnelSpheres {
   std::array<Vec3, 5> centers;    ///< mm, world
   std::array<double, 5> radii{};  ///< mm
+  Vec3 entry = Vec3::Zero();      ///< mm, world: the tip's centre when the insertion began
+  Vec3 axis = Vec3::UnitZ();      ///< insertion direction n, frozen at entry (unit)
+  double max_depth = 0.0;         ///< mm, apex depth below the surface at the lesion's bottom
   bool active = false;
 };
 
