@@ -18,6 +18,7 @@ void register_all(CLI::App& app, Registry& registry) {
     return 0;
   });
   register_sim(app, registry);
+  register_experiment(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
   register_export(app, registry);

@@ -30,5 +30,6 @@ class Registry {
 
 void register_all(CLI::App& app, Registry& registry);
 void register_sim(CLI::App& app, Registry& registry);
+void register_experiment(CLI::App& app, Registry& registry);
 
 }  // namespace cariesim::cli

@@ -1,6 +1,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -137,7 +139,7 @@ TEST(BuiltinScenes, ExperimentBlocksFollowThePaper) {
   EXPECT_DOUBLE_EQ(f.lesions[0].material.mu_s, 0.5);
   EXPECT_DOUBLE_EQ(f.lesions[0].material.mu_d, 0.3);
 
-  // §5.1: k_e 1, k_c 10, k_p 1 N/mm, F_p* 3 N; the healthy cube is taller.
+  // §5.1: k_e 1, k_c 10, k_p 1 N/mm, F_p* 3 N; the healthy cube is rigid, beside the caries cube.
   const SceneDesc ins = load_scene("insertion-blocks");
   ASSERT_EQ(ins.objects.size(), 2u);
   ASSERT_EQ(ins.lesions.size(), 1u);
@@ -148,7 +150,10 @@ TEST(BuiltinScenes, ExperimentBlocksFollowThePaper) {
   EXPECT_DOUBLE_EQ(ins.limits.max_stiffness, 1.0);
   const ObjectDesc& caries_cube = ins.objects[static_cast<std::size_t>(ins.lesions[0].object)];
   const ObjectDesc& healthy_cube = ins.objects[ins.lesions[0].object == 0 ? 1u : 0u];
-  EXPECT_GT(healthy_cube.pose.p.z(), caries_cube.pose.p.z());
+  EXPECT_DOUBLE_EQ(healthy_cube.pose.p.z(), caries_cube.pose.p.z());
+  EXPECT_GT(healthy_cube.pose.p.x(), caries_cube.pose.p.x());
+  EXPECT_TRUE(std::isinf(healthy_cube.material.stiffness))
+      << "the healthy cube must be rigid: the probe may not enter it (issue 4)";
 }
 
 // docs/scene-format.md shows scenes/examples/commented.yaml verbatim; it parses.

@@ -1,0 +1,70 @@
+#pragma once
+// Shared pieces of the experiments: trajectories made of straight segments, CSV output, figures.
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cariesim/experiment/experiments.hpp"
+#include "cariesim/experiment/json.hpp"
+#include "cariesim/experiment/simulate.hpp"
+
+namespace cariesim::experiment {
+
+/// A trajectory of straight segments: each call adds the pose reached `duration` s after the last.
+class Path {
+ public:
+  explicit Path(const Pose& start) { trajectory_.add(0.0, start); }
+  Path& to(double duration, const Pose& pose) {
+    trajectory_.add(trajectory_.end() + duration, pose);
+    return *this;
+  }
+  Path& hold(double duration) { return to(duration, trajectory_.pose.back()); }
+  [[nodiscard]] const Trajectory& trajectory() const { return trajectory_; }
+  [[nodiscard]] double end() const { return trajectory_.end(); }  ///< s
+  [[nodiscard]] const Pose& last() const { return trajectory_.pose.back(); }
+
+ private:
+  Trajectory trajectory_;
+};
+
+/// A pose with the given tip position and orientation.
+inline Pose at(const Vec3& p, const Quat& q) { return Pose{p, q}; }
+
+/// Writes a CSV with a header line and rows of numbers (%.6g) plus an optional last text column.
+void write_csv(const std::filesystem::path& file, const std::string& header,
+               const std::vector<std::vector<double>>& rows, const std::vector<std::string>& text = {});
+/// Writes text to a file; throws cariesim::Error when it cannot.
+void write_text(const std::filesystem::path& file, std::string_view text);
+
+/// Writes `plot_<name>.py` into `dir` and runs it with python3 (matplotlib). Returns the figure files
+/// the script reported, or an empty list (with a warning on stderr) when python3/matplotlib is
+/// missing or the script failed; the data and summary are written either way.
+std::vector<std::string> draw_figures(const std::filesystem::path& dir, std::string_view name,
+                                      std::string_view script, bool quiet);
+
+/// Progress line on stderr unless quiet.
+void say(const ExperimentOptions& options, const std::string& line);
+
+/// Mean and maximum of |v| over samples whose time lies in [t0, t1].
+struct Stats {
+  double mean = 0.0;
+  double peak = 0.0;
+  int count = 0;
+};
+Stats abs_stats(const std::vector<SimSample>& samples, double t0, double t1,
+                double (*value)(const SimSample&));
+
+// One function per experiment; each fills `summary` (an open JSON object's fields).
+void run_friction(const ExperimentOptions& options, JsonWriter& summary);
+void run_boundary(const ExperimentOptions& options, JsonWriter& summary);
+void run_insertion(const ExperimentOptions& options, JsonWriter& summary);
+void run_oral(const ExperimentOptions& options, JsonWriter& summary);
+
+// The figure scripts (plots.cpp).
+extern const std::string_view kFrictionPlot;
+extern const std::string_view kBoundaryPlot;
+extern const std::string_view kInsertionPlot;
+extern const std::string_view kOralPlot;
+
+}  // namespace cariesim::experiment

@@ -1,0 +1,89 @@
+// Paper §4.1.1, Figs. 9-11: friction force signals along a predefined 1-D path. The haptic tip goes
+// down into the friction block until its apex is 0.59 mm below the (carious) surface, slides along
+// x, and comes back up; four mu_s with mu_d = 0.3 (Fig. 10), four mu_d with mu_s = 0.5 (Fig. 11).
+#include <cmath>
+#include <cstdio>
+
+#include "cariesim/common/error.hpp"
+#include "experiment/common.hpp"
+
+namespace cariesim::experiment {
+
+namespace {
+
+constexpr double kPressDepth = 0.59;   // mm, haptic apex below the surface (paper §4.1.1)
+constexpr double kSlideLength = 30.0;  // mm
+constexpr double kSlideSpeed = 10.0;   // mm/s
+constexpr double kSettle = 0.3;        // s after the slide starts before the signal is measured
+
+struct Run {
+  const char* group;  // "static" (Fig. 10) or "dynamic" (Fig. 11)
+  double mu_s, mu_d;
+};
+
+}  // namespace
+
+void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
+  say(options, "friction: building friction-block");
+  Model model = build_model(load_scene("friction-block"), options.build);
+  if (model.lesions.empty()) throw Error("friction-block: the scene has no carious top");
+  const LesionModel& top = model.lesions.front();
+  const Vec3 surface = top.shape.center;  // a point on the carious top, normal +z
+  const Quat q = model.tool_home.q;
+  const double r_tip = model.tool.tip_radius;
+
+  // Fig. 9's path: down at the start, along x at constant depth, back up.
+  const Vec3 start = surface + Vec3(-kSlideLength / 2.0, 0.0, 0.0);
+  const double press_z = surface.z() + r_tip - kPressDepth;
+  Path path(at(start + Vec3(0, 0, 2.0), q));
+  path.to(0.5, at(Vec3(start.x(), start.y(), press_z), q));
+  const double slide_start = path.end();
+  path.to(kSlideLength / kSlideSpeed, at(Vec3(start.x() + kSlideLength, start.y(), press_z), q));
+  const double slide_end = path.end();
+  path.to(0.5, at(Vec3(start.x() + kSlideLength, start.y(), surface.z() + 2.0), q));
+
+  const Run runs[] = {{"static", 0.2, 0.3}, {"static", 0.4, 0.3}, {"static", 0.6, 0.3}, {"static", 0.8, 0.3},
+                      {"dynamic", 0.5, 0.1}, {"dynamic", 0.5, 0.2}, {"dynamic", 0.5, 0.3}, {"dynamic", 0.5, 0.4}};
+  summary.field("experiment", "friction").field("paper", "Figs. 9-11").field("press_depth_mm", kPressDepth);
+  summary.field("slide_speed_mm_s", kSlideSpeed).key("runs").begin_array();
+  for (const Run& run : runs) {
+    // The carious top's materials get this run's coefficients.
+    for (Material& m : model.materials) {
+      if (m.lesion != 0) continue;
+      m.mu_s = run.mu_s;
+      m.mu_d = run.mu_d;
+    }
+    const std::vector<SimSample> samples = simulate(model, path.trajectory(), options.rate_hz);
+
+    // The signal: F_x over the slide, the slip events (saw-tooth drops).
+    const double t0 = slide_start + kSettle, t1 = slide_end;
+    const Stats fx = abs_stats(samples, t0, t1, [](const SimSample& s) { return s.out.force.x(); });
+    const Stats fz = abs_stats(samples, t0, t1, [](const SimSample& s) { return s.out.force.z(); });
+    int slips = 0;
+    std::vector<std::vector<double>> rows;
+    for (const SimSample& s : samples) {
+      if (s.t >= t0 && s.t <= t1) slips += s.out.slips;
+      rows.push_back({s.t, s.out.haptic.p.x(), s.out.graphic.p.x(), s.out.force.x(), s.out.force.z(),
+                      static_cast<double>(s.out.slips)});
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "friction_%s_mus%.2f_mud%.2f.csv", run.group, run.mu_s, run.mu_d);
+    write_csv(options.out / name, "t,h_x,g_x,fx,fz,slips", rows);
+    say(options, std::string("friction: ") + name + ": mean |Fx| " + std::to_string(fx.mean) + " N, slips " +
+                     std::to_string(slips));
+    summary.begin_object()
+        .field("figure", run.group[0] == 's' ? "Fig. 10" : "Fig. 11")
+        .field("mu_s", run.mu_s)
+        .field("mu_d", run.mu_d)
+        .field("mean_abs_fx", fx.mean)
+        .field("peak_abs_fx", fx.peak)
+        .field("mean_fz", fz.mean)
+        .field("slip_events", slips)
+        .field("csv", name)
+        .end_object();
+  }
+  summary.end_array();
+  summary.field("measured_from_s", slide_start + kSettle).field("measured_to_s", slide_end);
+}
+
+}  // namespace cariesim::experiment

@@ -1,0 +1,160 @@
+// Paper §5.3, Figs. 15-16: scripted probing in `oral-cavity`. For each lesion the haptic tool slides
+// from healthy enamel onto the (hidden) lesion, pushes in to its bottom, holds, and pulls out; the
+// normal force is recorded over the interaction states, and each lesion's deepest insertion is
+// compared with its authored depth.
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "cariesim/common/error.hpp"
+#include "experiment/common.hpp"
+#include "experiment/oral.hpp"
+
+namespace cariesim::experiment {
+
+namespace {
+
+constexpr double kApproach = 3.0;     // mm above the surface where each probe starts
+constexpr double kSlide = 1.5;        // mm of sliding on enamel before reaching the lesion's centre
+constexpr double kPress = 0.3;        // mm below the surface while sliding
+constexpr double kPushSpeed = 2.0;    // mm/s
+constexpr double kBeyondBottom = 1.5; // mm the haptic tip goes past where the lag would put it
+constexpr double kNearTip = 1.5;      // mm: tool leaves this close to the tip may touch the lesion's tooth
+
+// An orthonormal pair spanning the plane perpendicular to n.
+void plane_basis(const Vec3& n, Vec3& u, Vec3& v) {
+  const Vec3 helper = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+  u = helper.cross(n).normalized();
+  v = n.cross(u);
+}
+
+}  // namespace
+
+Quat probe_orientation(const Vec3& axis, double roll) {
+  // Tool +z along `axis` (the tip points against it), tool +x (where the working end bends) at `roll`.
+  Vec3 u, v;
+  plane_basis(axis, u, v);
+  Mat3 r;
+  r.col(2) = axis.normalized();
+  r.col(0) = std::cos(roll) * u + std::sin(roll) * v;
+  r.col(1) = r.col(2).cross(r.col(0));
+  return Quat(r).normalized();
+}
+
+double posture_clearance(const Model& model, const LesionModel& lesion, const Quat& q) {
+  // Poses along the insertion: above the surface, at the surface, at the lesion's bottom.
+  const Vec3 n = lesion.shape.normal.normalized();
+  const Vec3 s = lesion.shape.center;
+  const double r_tip = model.tool.tip_radius;
+  PlacedTool placed(model.tool.tree);
+  std::vector<double> margin(model.tool.tree.leaf_count(), 0.0);
+  for (std::size_t i = 0; i < margin.size(); ++i) {
+    const Vec3 c = model.tool.tree.nodes[model.tool.tree.leaf_nodes[i]].center.cast<double>();
+    margin[i] = c.norm() > kNearTip ? 2.0 : 0.0;  // only leaves away from the tip are judged
+  }
+  ObjectMask mask = kAllObjects;
+  if (lesion.object >= 0) mask &= ~(ObjectMask{1} << lesion.object);
+  ContactSet contacts(4096);
+  double clearance = 2.0;
+  for (double depth : {-kApproach, 0.0, lesion.authored_depth}) {
+    placed.place(Pose{s - n * (depth - r_tip), q}, margin);
+    contacts.clear();
+    collide(placed, model.objects, mask, contacts);
+    for (const Contact& c : contacts.view()) clearance = std::min(clearance, c.gap);
+  }
+  return clearance;
+}
+
+Quat best_posture(const Model& model, const LesionModel& lesion, double* clearance_out) {
+  double best = -std::numeric_limits<double>::infinity();
+  Quat best_q = Quat::Identity();
+  for (int k = 0; k < 24; ++k) {
+    const Quat q = probe_orientation(lesion.shape.normal, k * M_PI / 12.0);
+    const double c = posture_clearance(model, lesion, q);
+    if (c > best) best = c, best_q = q;
+  }
+  if (clearance_out != nullptr) *clearance_out = best;
+  return best_q;
+}
+
+Trajectory probe_trajectory(const Model& model, const LesionModel& lesion, const Quat& q, double* push_start,
+                            double* push_end) {
+  const Vec3 n = lesion.shape.normal.normalized();
+  const Vec3 s = lesion.shape.center;
+  const double r_tip = model.tool.tip_radius;
+  const Material& mat = model.materials[lesion.material];
+  Vec3 u, v;
+  plane_basis(n, u, v);
+  // Tip centre for an apex `depth` below the surface point `p` (mm).
+  const auto tip = [&](const Vec3& p, double depth) { return at(p - n * (depth - r_tip), q); };
+  const Vec3 healthy = s + u * kSlide;  // enamel next to the lesion (approximately on the surface)
+  Path path(tip(healthy, -kApproach));
+  path.to(1.0, tip(healthy, kPress)).hold(0.3);  // touch the enamel
+  path.to(1.0, tip(s, kPress)).hold(0.3);        // slide onto the lesion
+  if (push_start != nullptr) *push_start = path.end();
+  // Push to the bottom: the graphic tip lags the haptic by F_p*/k_e (eqs. 3-5).
+  const double deepest = lesion.authored_depth + mat.f_p_star / mat.k_e + kBeyondBottom;
+  path.to((deepest - kPress) / kPushSpeed, tip(s, deepest)).hold(0.5);
+  if (push_end != nullptr) *push_end = path.end();
+  path.to((deepest + kApproach) / kPushSpeed, tip(s, -kApproach));  // pull out and away
+  return path.trajectory();
+}
+
+void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
+  say(options, "oral: building oral-cavity");
+  const Model model = build_model(load_scene("oral-cavity"), options.build);
+  summary.field("experiment", "oral").field("paper", "Figs. 15-16, §5.3").key("lesions").begin_array();
+  double state_force[4] = {0, 0, 0, 0};
+  int state_count[4] = {0, 0, 0, 0};
+  for (std::size_t l = 0; l < model.lesions.size(); ++l) {
+    const LesionModel& lesion = model.lesions[l];
+    const Material& mat = model.materials[lesion.material];
+    double clearance = 0.0, push_start = 0.0, push_end = 0.0;
+    const Quat q = best_posture(model, lesion, &clearance);
+    const Trajectory trajectory = probe_trajectory(model, lesion, q, &push_start, &push_end);
+    const std::vector<SimSample> samples = simulate(model, trajectory, options.rate_hz);
+
+    // Deepest insertion into this lesion; force by state; the entry's insertion force.
+    double max_depth = 0.0, entry_time = -1.0, first_contact = -1.0;
+    std::vector<std::vector<double>> rows;
+    std::vector<std::string> states;
+    for (const SimSample& s : samples) {
+      const bool inside = s.out.state == InteractionState::Inserting || s.out.state == InteractionState::Extracting;
+      if (inside && s.out.lesion == static_cast<int>(l)) max_depth = std::max(max_depth, s.out.depth);
+      if (inside && entry_time < 0.0) entry_time = s.t;
+      if (s.out.state != InteractionState::Free && first_contact < 0.0) first_contact = s.t;
+      state_force[static_cast<int>(s.out.state)] += s.out.normal_force;
+      ++state_count[static_cast<int>(s.out.state)];
+      rows.push_back({s.t, s.out.normal_force, s.out.force.norm(), s.out.depth, static_cast<double>(s.out.tip_tissue)});
+      states.push_back(state_name(s.out.state));
+    }
+    const std::string csv = "oral_" + lesion.name + ".csv";
+    write_csv(options.out / csv, "t,normal_force,force,depth,tip_tissue,state", rows, states);
+    say(options, "oral: " + lesion.name + ": authored depth " + std::to_string(lesion.authored_depth) +
+                     " mm, reached " + std::to_string(max_depth) + " mm (posture clearance " +
+                     std::to_string(clearance) + " mm)");
+    summary.begin_object()
+        .field("name", lesion.name)
+        .field("severity", lesion.severity)
+        .field("authored_depth_mm", lesion.authored_depth)
+        .field("max_depth_mm", max_depth)
+        .field("depth_error_mm", max_depth - lesion.authored_depth)
+        .field("F_p_threshold_N", mat.f_p_star)
+        .field("F_e_threshold_N", mat.f_e_star)
+        .field("k_e", mat.k_e)
+        .field("k_c_top", mat.k_c.at(0.0))
+        .field("posture_clearance_mm", clearance)
+        .field("time_to_insertion_s", entry_time >= 0.0 ? entry_time - first_contact : -1.0)
+        .field("push_start_s", push_start)
+        .field("push_end_s", push_end)
+        .field("csv", csv)
+        .end_object();
+  }
+  summary.end_array();
+  summary.key("mean_normal_force_by_state").begin_object();
+  const char* names[] = {"free", "sliding", "inserting", "extracting"};
+  for (int i = 0; i < 4; ++i) summary.field(names[i], state_count[i] ? state_force[i] / state_count[i] : 0.0);
+  summary.end_object();
+}
+
+}  // namespace cariesim::experiment
