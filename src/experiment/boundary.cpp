@@ -1,6 +1,7 @@
 // Paper §4.2.1, Fig. 12: the tangential force when the probe slides across the boundary between a
 // non-frictional (healthy) and a frictional (carious) region of a cube, both 1 N/mm; and with a large
 // stiffness difference, where the tip sunk in the soft caries catches ("hooks") at the firmer wall.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -53,6 +54,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
   };
   summary.field("experiment", "boundary").field("paper", "Fig. 12, §4.2.1").field("border_x_mm", border);
   summary.field("press_depth_mm", kPressDepth).field("speed_mm_s", kSpeed).key("runs").begin_array();
+  double rigid_overlap = 0.0;
   for (const Run& run : runs) {
     // Stiffness of the healthy region and of the caries for this run.
     for (Material& m : model.materials) m.stiffness = m.lesion == 0 ? run.caries : run.healthy;
@@ -68,6 +70,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
     path.to(std::abs(x1 - x0) / kSpeed, at(Vec3(x1, c.y(), press_z), q));
     path.to(0.5, at(Vec3(x1, c.y(), c.z() + 2.0), q));
     const std::vector<SimSample> samples = simulate(model, path.trajectory(), options.rate_hz);
+    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // Tangential force before and after the border, by the haptic tool's travel; hooking.
     double before = 0.0, after = 0.0;
@@ -110,6 +113,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
         .end_object();
   }
   summary.end_array();
+  summary.field("max_rigid_penetration_mm", rigid_overlap);
 }
 
 }  // namespace cariesim::experiment

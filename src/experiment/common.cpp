@@ -2,6 +2,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -76,6 +77,25 @@ Stats abs_stats(const std::vector<SimSample>& samples, double t0, double t1,
   }
   s.mean = s.count > 0 ? sum / s.count : 0.0;
   return s;
+}
+
+double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples) {
+  // Objects whose every leaf is rigid (enamel, dentin, rigid blocks).
+  ObjectMask rigid = 0;
+  for (std::size_t i = 0; i < model.objects.size(); ++i) {
+    const SphereTree& tree = model.objects[i].tree;
+    bool all = !tree.empty();
+    for (uint32_t node : tree.leaf_nodes) all = all && model.materials[tree.nodes[node].material].rigid();
+    if (all) rigid |= ObjectMask{1} << i;
+  }
+  PlacedTool placed(model.tool.tree);
+  double worst = 0.0;
+  for (const SimSample& s : samples) {
+    placed.place(s.out.graphic, 0.0);
+    const ClosestPair c = closest(placed, model.objects, rigid, 0.0);
+    if (std::isfinite(c.gap)) worst = std::max(worst, -c.gap);
+  }
+  return worst;
 }
 
 }  // namespace cariesim::experiment

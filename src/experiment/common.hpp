@@ -43,6 +43,10 @@ void write_text(const std::filesystem::path& file, std::string_view text);
 std::vector<std::string> draw_figures(const std::filesystem::path& dir, std::string_view name,
                                       std::string_view script, bool quiet);
 
+/// Deepest overlap (mm, 0 when none) of the graphic tool with any rigid object over a run: the
+/// engine promises at most the rigid tolerance (0.01 mm) after every step (issue #3 acceptance).
+double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples);
+
 /// Progress line on stderr unless quiet.
 void say(const ExperimentOptions& options, const std::string& line);
 

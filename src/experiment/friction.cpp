@@ -1,6 +1,7 @@
 // Paper §4.1.1, Figs. 9-11: friction force signals along a predefined 1-D path. The haptic tip goes
 // down into the friction block until its apex is 0.59 mm below the (carious) surface, slides along
 // x, and comes back up; four mu_s with mu_d = 0.3 (Fig. 10), four mu_d with mu_s = 0.5 (Fig. 11).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -46,6 +47,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
                       {"dynamic", 0.5, 0.1}, {"dynamic", 0.5, 0.2}, {"dynamic", 0.5, 0.3}, {"dynamic", 0.5, 0.4}};
   summary.field("experiment", "friction").field("paper", "Figs. 9-11").field("press_depth_mm", kPressDepth);
   summary.field("slide_speed_mm_s", kSlideSpeed).key("runs").begin_array();
+  double rigid_overlap = 0.0;
   for (const Run& run : runs) {
     // The carious top's materials get this run's coefficients.
     for (Material& m : model.materials) {
@@ -54,6 +56,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
       m.mu_d = run.mu_d;
     }
     const std::vector<SimSample> samples = simulate(model, path.trajectory(), options.rate_hz);
+    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // The signal: F_x over the slide, the slip events (saw-tooth drops).
     const double t0 = slide_start + kSettle, t1 = slide_end;
@@ -84,6 +87,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
   }
   summary.end_array();
   summary.field("measured_from_s", slide_start + kSettle).field("measured_to_s", slide_end);
+  summary.field("max_rigid_penetration_mm", rigid_overlap);
 }
 
 }  // namespace cariesim::experiment

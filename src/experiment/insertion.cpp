@@ -108,6 +108,7 @@ void run_insertion(const ExperimentOptions& options, JsonWriter& summary) {
   summary.end_array();
   summary.field("max_tip_axis_deviation_mm", axis_deviation);
   summary.field("min_healthy_clearance_mm", std::isfinite(min_clearance) ? min_clearance : 1.0);
+  summary.field("max_rigid_penetration_mm", max_rigid_penetration(model, samples));
   summary.field("csv", "insertion.csv");
 }
 

@@ -2,6 +2,7 @@
 // from healthy enamel onto the (hidden) lesion, pushes in to its bottom, holds, and pulls out; the
 // normal force is recorded over the interaction states, and each lesion's deepest insertion is
 // compared with its authored depth.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -106,6 +107,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
   summary.field("experiment", "oral").field("paper", "Figs. 15-16, §5.3").key("lesions").begin_array();
   double state_force[4] = {0, 0, 0, 0};
   int state_count[4] = {0, 0, 0, 0};
+  double rigid_overlap = 0.0;
   for (std::size_t l = 0; l < model.lesions.size(); ++l) {
     const LesionModel& lesion = model.lesions[l];
     const Material& mat = model.materials[lesion.material];
@@ -113,6 +115,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
     const Quat q = best_posture(model, lesion, &clearance);
     const Trajectory trajectory = probe_trajectory(model, lesion, q, &push_start, &push_end);
     const std::vector<SimSample> samples = simulate(model, trajectory, options.rate_hz);
+    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // Deepest insertion into this lesion; force by state; the entry's insertion force.
     double max_depth = 0.0, entry_time = -1.0, first_contact = -1.0;
@@ -151,6 +154,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
         .end_object();
   }
   summary.end_array();
+  summary.field("max_rigid_penetration_mm", rigid_overlap);
   summary.key("mean_normal_force_by_state").begin_object();
   const char* names[] = {"free", "sliding", "inserting", "extracting"};
   for (int i = 0; i < 4; ++i) summary.field(names[i], state_count[i] ? state_force[i] / state_count[i] : 0.0);
