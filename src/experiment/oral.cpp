@@ -21,6 +21,7 @@ constexpr double kPress = 0.3;        // mm below the surface while sliding
 constexpr double kPushSpeed = 2.0;    // mm/s
 constexpr double kBeyondBottom = 1.5; // mm the haptic tip goes past where the lag would put it
 constexpr double kNearTip = 1.5;      // mm: tool leaves this close to the tip may touch the lesion's tooth
+constexpr double kGoodClearance = 0.3; // mm: a posture this clear of everything is a correct one
 
 // An orthonormal pair spanning the plane perpendicular to n.
 void plane_basis(const Vec3& n, Vec3& u, Vec3& v) {
@@ -42,9 +43,10 @@ Quat probe_orientation(const Vec3& axis, double roll) {
   return Quat(r).normalized();
 }
 
-double posture_clearance(const Model& model, const LesionModel& lesion, const Quat& q) {
-  // Poses along the insertion: above the surface, at the surface, at the lesion's bottom.
+Posture evaluate_posture(const Model& model, const LesionModel& lesion, const Quat& q) {
+  // Poses along the insertion axis: above the surface, at the surface, at the lesion's floor.
   const Vec3 n = lesion.shape.normal.normalized();
+  const Vec3 axis = q * Vec3::UnitZ();
   const Vec3 s = lesion.shape.center;
   const double r_tip = model.tool.tip_radius;
   PlacedTool placed(model.tool.tree);
@@ -56,45 +58,82 @@ double posture_clearance(const Model& model, const LesionModel& lesion, const Qu
   ObjectMask mask = kAllObjects;
   if (lesion.object >= 0) mask &= ~(ObjectMask{1} << lesion.object);
   ContactSet contacts(4096);
-  double clearance = 2.0;
-  for (double depth : {-kApproach, 0.0, lesion.authored_depth}) {
-    placed.place(Pose{s - n * (depth - r_tip), q}, margin);
+  Posture out;
+  out.q = q;
+  out.tilt = std::acos(std::clamp(axis.dot(n), -1.0, 1.0));
+  out.clearance = 2.0;
+  const double floor = lesion.authored_depth / std::max(axis.dot(n), 0.2);
+  for (double depth : {-kApproach, 0.0, floor}) {
+    placed.place(Pose{s - axis * (depth - r_tip), q}, margin);
     contacts.clear();
     collide(placed, model.objects, mask, contacts);
-    for (const Contact& c : contacts.view()) clearance = std::min(clearance, c.gap);
+    for (const Contact& c : contacts.view()) {
+      if (c.gap < out.clearance) out.clearance = c.gap, out.nearest_object = c.object;
+    }
   }
-  return clearance;
+  return out;
 }
 
-Quat best_posture(const Model& model, const LesionModel& lesion, double* clearance_out) {
-  double best = -std::numeric_limits<double>::infinity();
-  Quat best_q = Quat::Identity();
-  for (int k = 0; k < 24; ++k) {
-    const Quat q = probe_orientation(lesion.shape.normal, k * M_PI / 12.0);
-    const double c = posture_clearance(model, lesion, q);
-    if (c > best) best = c, best_q = q;
+std::vector<Posture> posture_candidates(const Model& model, const LesionModel& lesion) {
+  const Vec3 n = lesion.shape.normal.normalized();
+  Vec3 u, v;
+  plane_basis(n, u, v);
+  std::vector<Posture> out;
+  for (int t = 0; t <= 3; ++t) {
+    const double tilt = t * M_PI / 18.0;  // 0, 10, 20, 30 degrees
+    for (int a = 0; a < (t == 0 ? 1 : 8); ++a) {
+      const double azimuth = a * M_PI / 4.0;
+      const Vec3 axis = std::cos(tilt) * n + std::sin(tilt) * (std::cos(azimuth) * u + std::sin(azimuth) * v);
+      for (int k = 0; k < 24; ++k) out.push_back(evaluate_posture(model, lesion, probe_orientation(axis, k * M_PI / 12.0)));
+    }
   }
-  if (clearance_out != nullptr) *clearance_out = best;
-  return best_q;
+  return out;
+}
+
+Posture best_posture(const Model& model, const LesionModel& lesion) {
+  const std::vector<Posture> all = posture_candidates(model, lesion);
+  const Posture* best = nullptr;
+  for (const Posture& p : all) {
+    const bool good = p.clearance >= kGoodClearance;
+    if (best == nullptr) {
+      best = &p;
+      continue;
+    }
+    const bool best_good = best->clearance >= kGoodClearance;
+    if (good && (!best_good || p.tilt < best->tilt - 1e-9 ||
+                 (std::abs(p.tilt - best->tilt) < 1e-9 && p.clearance > best->clearance)))
+      best = &p;
+    else if (!good && !best_good && p.clearance > best->clearance)
+      best = &p;
+  }
+  return *best;
+}
+
+double apex_depth(const Model& model, const LesionModel& lesion, const Pose& graphic) {
+  const Vec3 n = lesion.shape.normal.normalized();
+  const Vec3 apex = graphic.p - graphic.z_axis() * model.tool.tip_radius;
+  return (lesion.shape.center - apex).dot(n);
 }
 
 Trajectory probe_trajectory(const Model& model, const LesionModel& lesion, const Quat& q, double* push_start,
                             double* push_end) {
   const Vec3 n = lesion.shape.normal.normalized();
+  const Vec3 axis = q * Vec3::UnitZ();  // toward the handle; the tip goes in along -axis
   const Vec3 s = lesion.shape.center;
   const double r_tip = model.tool.tip_radius;
   const Material& mat = model.materials[lesion.material];
   Vec3 u, v;
   plane_basis(n, u, v);
-  // Tip centre for an apex `depth` below the surface point `p` (mm).
-  const auto tip = [&](const Vec3& p, double depth) { return at(p - n * (depth - r_tip), q); };
+  // Tip centre for an apex `depth` along the axis below the surface point `p` (mm).
+  const auto tip = [&](const Vec3& p, double depth) { return at(p - axis * (depth - r_tip), q); };
   const Vec3 healthy = s + u * kSlide;  // enamel next to the lesion (approximately on the surface)
   Path path(tip(healthy, -kApproach));
   path.to(1.0, tip(healthy, kPress)).hold(0.3);  // touch the enamel
   path.to(1.0, tip(s, kPress)).hold(0.3);        // slide onto the lesion
   if (push_start != nullptr) *push_start = path.end();
-  // Push to the bottom: the graphic tip lags the haptic by F_p*/k_e (eqs. 3-5).
-  const double deepest = lesion.authored_depth + mat.f_p_star / mat.k_e + kBeyondBottom;
+  // Push to the floor: the graphic tip lags the haptic by F_p*/k_e (eqs. 3-5).
+  const double floor = lesion.authored_depth / std::max(axis.dot(n), 0.2);
+  const double deepest = floor + mat.f_p_star / mat.k_e + kBeyondBottom;
   path.to((deepest - kPress) / kPushSpeed, tip(s, deepest)).hold(0.5);
   if (push_end != nullptr) *push_end = path.end();
   path.to((deepest + kApproach) / kPushSpeed, tip(s, -kApproach));  // pull out and away
@@ -111,19 +150,22 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
   for (std::size_t l = 0; l < model.lesions.size(); ++l) {
     const LesionModel& lesion = model.lesions[l];
     const Material& mat = model.materials[lesion.material];
-    double clearance = 0.0, push_start = 0.0, push_end = 0.0;
-    const Quat q = best_posture(model, lesion, &clearance);
-    const Trajectory trajectory = probe_trajectory(model, lesion, q, &push_start, &push_end);
+    double push_start = 0.0, push_end = 0.0;
+    const Posture posture = best_posture(model, lesion);
+    const Trajectory trajectory = probe_trajectory(model, lesion, posture.q, &push_start, &push_end);
     const std::vector<SimSample> samples = simulate(model, trajectory, options.rate_hz);
     rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // Deepest insertion into this lesion; force by state; the entry's insertion force.
-    double max_depth = 0.0, entry_time = -1.0, first_contact = -1.0;
+    double max_depth = 0.0, max_insertion = 0.0, entry_time = -1.0, first_contact = -1.0;
     std::vector<std::vector<double>> rows;
     std::vector<std::string> states;
     for (const SimSample& s : samples) {
       const bool inside = s.out.state == InteractionState::Inserting || s.out.state == InteractionState::Extracting;
-      if (inside && s.out.lesion == static_cast<int>(l)) max_depth = std::max(max_depth, s.out.depth);
+      if (inside && s.out.lesion == static_cast<int>(l)) {
+        max_depth = std::max(max_depth, apex_depth(model, lesion, s.out.graphic));
+        max_insertion = std::max(max_insertion, s.out.depth);
+      }
       if (inside && entry_time < 0.0) entry_time = s.t;
       if (s.out.state != InteractionState::Free && first_contact < 0.0) first_contact = s.t;
       state_force[static_cast<int>(s.out.state)] += s.out.normal_force;
@@ -135,18 +177,21 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
     write_csv(options.out / csv, "t,normal_force,force,depth,tip_tissue,state", rows, states);
     say(options, "oral: " + lesion.name + ": authored depth " + std::to_string(lesion.authored_depth) +
                      " mm, reached " + std::to_string(max_depth) + " mm (posture clearance " +
-                     std::to_string(clearance) + " mm)");
+                     std::to_string(posture.clearance) + " mm, tilt " +
+                     std::to_string(posture.tilt * 180.0 / M_PI) + " deg)");
     summary.begin_object()
         .field("name", lesion.name)
         .field("severity", lesion.severity)
         .field("authored_depth_mm", lesion.authored_depth)
         .field("max_depth_mm", max_depth)
         .field("depth_error_mm", max_depth - lesion.authored_depth)
+        .field("max_insertion_mm", max_insertion)
         .field("F_p_threshold_N", mat.f_p_star)
         .field("F_e_threshold_N", mat.f_e_star)
         .field("k_e", mat.k_e)
         .field("k_c_top", mat.k_c.at(0.0))
-        .field("posture_clearance_mm", clearance)
+        .field("posture_clearance_mm", posture.clearance)
+        .field("posture_tilt_deg", posture.tilt * 180.0 / M_PI)
         .field("time_to_insertion_s", entry_time >= 0.0 ? entry_time - first_contact : -1.0)
         .field("push_start_s", push_start)
         .field("push_end_s", push_end)

@@ -28,6 +28,7 @@ constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a
 constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
 constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
 constexpr double kMaxStiffness = 1e6;       // N/mm
+constexpr double kDefaultCariesStiffness = 4.0;  // N/mm, sliding stiffness of caries without a preset
 constexpr double kMaxFriction = 10.0;       // friction coefficients
 constexpr int kMaxParts = 64;               // collision objects a model can hold (ObjectMask)
 
@@ -372,9 +373,8 @@ void read_lesion_material(const Reader& r, const YAML::Node& node, const std::st
       r, node, path,
       {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "f_p_star", "f_e_star", "k_theta"});
   Material& m = l.material;
-  // The sliding contact stiffness follows k_e unless it is given.
+  // The sliding contact stiffness is its own parameter (see caries_preset): k_e does not change it.
   f.positive("k_e", m.k_e, kMaxStiffness, "N/mm");
-  m.stiffness = m.k_e;
   if (const auto n = f.get("stiffness"); n.IsDefined())
     m.stiffness = read_stiffness(r, n, f.sub("stiffness"));
   f.number_in("mu_s", m.mu_s, 0.0, kMaxFriction, "");
@@ -439,7 +439,7 @@ LesionDesc read_lesion(const Reader& r, const YAML::Node& node, const std::strin
   // Material: the severity preset (or the caries defaults), then the overrides.
   l.material = Material{};
   l.material.tissue = Tissue::Caries;
-  l.material.stiffness = l.material.k_e;
+  l.material.stiffness = kDefaultCariesStiffness;
   if (const auto n = f.get("severity"); n.IsDefined()) {
     const std::size_t s = r.choice(n, f.sub("severity"), "severity", {"mild", "severe"});
     l.severity = s == 0 ? "mild" : "severe";

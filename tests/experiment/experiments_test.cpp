@@ -189,6 +189,25 @@ TEST(Experiments, InsertionPhasesOfFig14) {
   EXPECT_NEAR(csv.rows.back()[ha], csv.rows.back()[ga], 0.01);
 }
 
+// Figs. 15-16 / §5.3: with the correct posture every lesion is opened to its floor; the states
+// appear in order and the rigid teeth are never entered.
+TEST(Experiments, OralLesionsReachTheirAuthoredDepth) {
+  const ExperimentOptions o = options_in("oral");
+  const std::string json = run_experiment("oral", o);
+  for (const char* name : {"lesion1", "lesion2", "lesion3"}) {
+    const std::string anchor = std::string("\"name\":\"") + name + "\"";
+    EXPECT_NEAR(number_after(json, anchor, "max_depth_mm"), number_after(json, anchor, "authored_depth_mm"), 0.1)
+        << name;
+    EXPECT_GE(number_after(json, anchor, "posture_clearance_mm"), 0.0) << name;
+    EXPECT_GT(number_after(json, anchor, "time_to_insertion_s"), 0.0) << name;
+    EXPECT_GT(number_after(json, anchor, "F_p_threshold_N"), 0.0) << name;
+  }
+  EXPECT_LE(number_after(json, "{", "max_rigid_penetration_mm"), 0.01);
+  EXPECT_GT(number_after(json, "mean_normal_force_by_state", "inserting"), 0.0);
+  EXPECT_GT(number_after(json, "mean_normal_force_by_state", "sliding"), 0.0);
+  EXPECT_EQ(number_after(json, "mean_normal_force_by_state", "free"), 0.0);
+}
+
 TEST(Experiments, UnknownNameIsAClearError) {
   ExperimentOptions o = options_in("unknown");
   try {

@@ -105,12 +105,13 @@ TEST(BuiltinScenes, OralCavityFollowsThePaper) {
     EXPECT_LE(l->shape.size, 3.0) << l->name;
     EXPECT_GT(lesion_shape_in_world(s, *l).normal.z(), 0.99) << "occlusal: " << l->name;
   }
-  // #2 faces 45 (its normal points from 46 toward 45) and tilts toward occlusal.
+  // #2 faces 45 (its normal leans from 46 toward 45) on the marginal ridge's slope, 37-53 degrees
+  // from vertical.
   const LesionShape l2 = lesion_shape_in_world(s, s.lesions[1]);
   const Vec3 toward_45 = (tooth(45)->pose.p - tooth(46)->pose.p).normalized();
-  EXPECT_GT(l2.normal.dot(toward_45), 0.9);
-  EXPECT_GT(l2.normal.z(), 0.2);
-  EXPECT_LT(l2.normal.z(), 0.5);
+  EXPECT_GT(l2.normal.dot(toward_45), 0.55);
+  EXPECT_GT(l2.normal.z(), 0.6);
+  EXPECT_LT(l2.normal.z(), 0.8);
 }
 
 TEST(BuiltinScenes, ExperimentBlocksFollowThePaper) {
