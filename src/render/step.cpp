@@ -133,11 +133,19 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
     const PairGeometry geo = pair_geometry(m, s, g, s.pairs[reg.pair]);
     touching = touching || geo.gap <= m.params.contact_margin || reg.normal_force > 0.0;
     const Material& mat = m.materials[reg.material];
-    if (reg.tip && mat.tissue == Tissue::Caries && mat.lesion >= 0 && geo.gap < 0.0 &&
-        (s.tip_lesion < 0 || -geo.gap > s.tip_sink)) {
+    if (!(reg.tip && mat.tissue == Tissue::Caries && mat.lesion >= 0 && geo.gap < 0.0)) continue;
+    // How deep the tip is in the caries: the shallowest penetration among the region's surface
+    // patches (as for its rows), not the deepest pair, which may measure from a far side face.
+    double sink = -geo.gap;
+    for (int i = 0; i < s.pair_count; ++i) {
+      if (s.pair_region[i] != r) continue;
+      const PairGeometry pg = pair_geometry(m, s, g, s.pairs[i]);
+      if (pg.gap < 0.0 && std::isfinite(pg.lateral) && !pg.wall) sink = std::min(sink, -pg.gap);
+    }
+    if (s.tip_lesion < 0 || sink > s.tip_sink) {
       s.tip_lesion = mat.lesion;
       s.tip_material = reg.material;
-      s.tip_sink = -geo.gap;
+      s.tip_sink = sink;
     }
   }
   s.interaction = touching ? InteractionState::Sliding : InteractionState::Free;

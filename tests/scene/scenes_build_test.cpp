@@ -125,7 +125,7 @@ TEST_F(OralCavity, InterproximalGapIsProbeSized) {
   const double gap =
       gap_to_leaves(m.objects[static_cast<std::size_t>(tooth45)].tree, m.lesions[1].shape.center);
   EXPECT_GT(gap, 1.3);
-  EXPECT_LT(gap, 2.3);
+  EXPECT_LT(gap, 3.0);  // on the marginal ridge slope, above the contact area
   // The neighbouring teeth, and the tongue and the teeth, do not touch.
   EXPECT_GT(gap_between(m, object_named(m, "tooth46/healthy"), tooth45), 0.3);
   EXPECT_GT(gap_between(m, object_named(m, "tooth36/healthy"), object_named(m, "tooth35")), 0.1);
