@@ -7,9 +7,11 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cariesim/common/math.hpp"
 #include "cariesim/render/model.hpp"
+#include "cariesim/render/step.hpp"
 
 namespace cariesim {
 
@@ -32,9 +34,26 @@ struct DeviceState {
   bool valid = false;                 ///< false until the first reading (or when the source ended)
 };
 
+/// What the simulator reports alongside each wrench (the UDP bridge forwards it to its client).
+struct DeviceStatus {
+  InteractionState state = InteractionState::Free;  ///< the engine's interaction state
+  double depth = 0.0;                               ///< mm, insertion depth
+  uint32_t safety_flags = 0;                        ///< SafetyFlag bits of this cycle's wrench
+  uint32_t step_flags = 0;                          ///< StepFlag bits of this cycle's step
+};
+
+/// A named event counter of a device (e.g. the UDP bridge's rejected packets), for panels and notes.
+struct DeviceCounter {
+  const char* name = "";  ///< static string, e.g. "rejected_stale"
+  uint64_t value = 0;     ///< events so far
+};
+
+/// A haptic device. ServoLoop::start() calls start() and ServoLoop::stop() calls stop(), so a device
+/// may be started again after a stop; start() on a running device does nothing.
 class Device {
  public:
   virtual ~Device() = default;
+  /// What the device is and what it can render (any thread; may allocate).
   [[nodiscard]] virtual DeviceInfo info() const = 0;
   /// Starts the device (threads, sockets); throws cariesim::Error with the reason when it cannot.
   virtual void start() {}
@@ -45,6 +64,10 @@ class Device {
   /// Renders a wrench (N, N·mm, at the tool-frame origin) that already went through ForceSafety.
   /// Servo thread; non-blocking.
   virtual void write(const Vec3& force, const Vec3& torque) = 0;
+  /// The state that goes with the next write() (called just before it). Servo thread; non-blocking.
+  virtual void set_status(const DeviceStatus& status) { (void)status; }
+  /// Event counters (any thread; may allocate). Empty for devices without any.
+  [[nodiscard]] virtual std::vector<DeviceCounter> counters() const { return {}; }
 };
 
 }  // namespace cariesim

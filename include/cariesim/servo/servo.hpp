@@ -20,14 +20,19 @@ namespace cariesim {
 
 /// A parameter change from the UI, applied by the servo thread between two steps.
 struct ParamChange {
+  /// μs, μd (1, in [0, 5]); Stiffness: contact stiffness, KE: k_e, KC: constant k_c (N/mm, in
+  /// (0, 1e6]); FPStar: F_p*, FEStar: F_e* (N, in [0, 1e3]); KTheta: k_θ (N·mm/rad, in (0, 1e6]);
+  /// ForceScale (1, in [0, 1]); Preset: the paper's mild (0) or severe (1) preset (caries_preset).
   enum class Field : uint8_t { MuS, MuD, Stiffness, KE, KC, FPStar, FEStar, KTheta, ForceScale, Preset };
   Field field = Field::MuS;
   int16_t lesion = -1;  ///< the lesion whose materials change; -1 for ForceScale
   double value = 0.0;   ///< in the field's unit (N/mm, N, N·mm/rad, 1); Preset: 0 mild, 1 severe
 };
 
-/// Applies a change to the model's materials (what the servo thread does between steps). Returns
-/// false when it does not apply (unknown lesion, non-finite or out-of-range value).
+/// Applies a change to every material of the change's lesion (what the servo thread does between
+/// steps). Returns false when it does not apply (unknown lesion, non-finite or out-of-range value)
+/// and then changes nothing. ForceScale is not a model parameter: ServoLoop gives it to its
+/// ForceSafety, and this function returns false for it. Allocation-free.
 bool apply_param_change(Model& model, const ParamChange& change);
 
 /// One recorded sample (servo -> recorder), at the servo rate.
@@ -49,22 +54,35 @@ struct ServoSample {
   uint32_t buttons = 0;
 };
 
-/// Step time and loop jitter, as a fixed-bin histogram (allocation-free to fill).
+/// Step time and loop jitter, as a fixed-bin histogram (allocation-free to fill). One thread adds;
+/// any thread may read at the same time (the bins are atomics: a reading taken while values are
+/// being added is approximate, never torn).
 class TimingHistogram {
  public:
   static constexpr int kBins = 4096;       ///< 0.25 µs bins up to 1024 µs, the last bin holds the rest
   static constexpr double kBinUs = 0.25;   ///< µs
+  TimingHistogram() = default;
+  TimingHistogram(const TimingHistogram& other) { *this = other; }
+  TimingHistogram& operator=(const TimingHistogram& other);
+  /// Adds one value (µs; negative and non-finite values count as 0). One writer thread.
   void add(double us);
-  [[nodiscard]] double percentile(double p) const;  ///< µs (bin upper edge); 0 when empty
-  [[nodiscard]] double max() const { return max_; } ///< µs
-  [[nodiscard]] uint64_t count() const { return count_; }
+  /// The value below which a fraction `p` (in [0, 1], e.g. 0.999) of the values lie: µs, the upper
+  /// edge of its bin, never above max(); 0 when empty.
+  [[nodiscard]] double percentile(double p) const;
+  [[nodiscard]] double max() const { return max_.load(std::memory_order_relaxed); } ///< µs
+  [[nodiscard]] uint64_t count() const { return count_.load(std::memory_order_relaxed); }
+  /// Empties it (not while another thread adds).
+  void reset();
 
  private:
-  std::array<uint64_t, kBins> bins_{};
-  uint64_t count_ = 0;
-  double max_ = 0.0;
+  std::array<std::atomic<uint64_t>, kBins> bins_{};
+  std::atomic<uint64_t> count_{0};
+  std::atomic<double> max_{0.0};
 };
 
+/// Timing of a loop. "Step" is one cycle's work from wake-up to the device write: parameter changes,
+/// device read, engine step, safety; "jitter" is how late the thread woke up after its deadline. An
+/// overrun is a cycle whose work ended after the next deadline.
 struct TimingReport {
   double step_p50 = 0, step_p99 = 0, step_p999 = 0, step_max = 0;        ///< µs
   double jitter_p50 = 0, jitter_p99 = 0, jitter_p999 = 0, jitter_max = 0;  ///< µs, wake-up lateness
@@ -84,43 +102,65 @@ struct ServoSnapshot {
   uint64_t cycle = 0;
   uint64_t overruns = 0;
   double rate_hz = 0.0;        ///< measured over the last second
+  uint64_t safety_faults = 0;  ///< cycles whose force ForceSafety zeroed, so far
 };
 
 struct ServoOptions {
   double rate_hz = 1000.0;            ///< Hz, 1 kHz default, up to 10 kHz
   bool realtime = true;               ///< ask for SCHED_FIFO (reports when refused)
+  int realtime_priority = 80;         ///< SCHED_FIFO priority asked for (1-99)
   SafetyParams safety;
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
 };
 
+/// The servo thread. Per cycle, at absolute deadlines (CLOCK_MONOTONIC, TIMER_ABSTIME) spaced by the
+/// fixed period 1/rate_hz: apply queued parameter changes, read the device, step the engine with
+/// dt = 1/rate_hz (never the measured delta), filter the wrench through ForceSafety, write it to the
+/// device, publish a snapshot, push a sample. A reading that is invalid or not finite is replaced by
+/// the last good pose (the safety layer zeroes the force). The cycle allocates nothing, takes no
+/// lock and does no I/O. When the loop falls more than a period behind, it skips the missed
+/// deadlines instead of running them back to back (the servo clock follows the wall clock).
 class ServoLoop {
  public:
   /// The loop owns a State for `model`; `model` and `device` must outlive it. Only the servo thread
-  /// touches `model` while running (parameter changes arrive through post()).
+  /// touches `model` while running (parameter changes arrive through post()). Throws
+  /// cariesim::Error when rate_hz is outside (0, 10000].
   ServoLoop(Model& model, Device& device, const ServoOptions& options);
   ~ServoLoop();
   ServoLoop(const ServoLoop&) = delete;
   ServoLoop& operator=(const ServoLoop&) = delete;
 
+  /// Starts the device (Device::start) and the thread; the servo clock continues where the last run
+  /// stopped and the force ramps in again. Throws what the device throws. No-op when running.
   void start();
+  /// Stops the thread, then the device. Safe to call twice.
   void stop();
   [[nodiscard]] bool running() const { return running_.load(); }
-  /// "SCHED_FIFO priority N" or why real-time priority was refused.
+  /// "SCHED_FIFO priority N" or why real-time priority was refused (set by start()).
   [[nodiscard]] std::string realtime_status() const;
   /// The latest snapshot, if a new one was published since the last call (one reader thread).
   bool latest(ServoSnapshot& out) { return snapshots_.read(out); }
   /// Queues a parameter change (one producer thread); false when the queue is full.
   bool post(const ParamChange& change) { return changes_.push(change); }
-  /// Timing so far (exact after stop(); approximate while running).
+  /// Timing so far, over every run (exact after stop(); approximate while running). Any thread.
   [[nodiscard]] TimingReport timing() const;
   /// Samples that did not fit in the record queue.
   [[nodiscard]] uint64_t dropped_samples() const { return dropped_.load(); }
+  /// Parameter changes that did not apply (apply_param_change returned false).
+  [[nodiscard]] uint64_t rejected_changes() const { return rejected_changes_.load(); }
+  /// The fixed step, 1 / rate_hz (s).
+  [[nodiscard]] double dt() const { return dt_; }
 
  private:
   void run();
+  /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
+  /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
+  int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
   Model& model_;
   Device& device_;
   ServoOptions options_;
+  double dt_;                          // s
+  int64_t period_ns_;
   std::unique_ptr<State> state_;
   ForceSafety safety_;
   TripleBuffer<ServoSnapshot> snapshots_;
@@ -128,10 +168,18 @@ class ServoLoop {
   std::thread thread_;
   std::atomic<bool> running_{false};
   std::atomic<uint64_t> dropped_{0};
+  std::atomic<uint64_t> rejected_changes_{0};
   std::string realtime_status_;
   TimingHistogram step_hist_, jitter_hist_;
-  uint64_t cycles_ = 0, overruns_ = 0;
-  double elapsed_ = 0.0;
+  std::atomic<uint64_t> cycles_{0}, overruns_{0};
+  std::atomic<double> elapsed_{0.0};   // s, wall time run by the loop over every run
+  double time_base_ = 0.0;             // s, servo time at which the current run started
+  // Servo thread only.
+  Pose last_good_;
+  ServoSnapshot snapshot_;
+  int64_t rate_mark_ns_ = 0;
+  uint64_t rate_mark_cycles_ = 0;
+  double measured_rate_ = 0.0;
 };
 
 }  // namespace cariesim

@@ -1,0 +1,24 @@
+#pragma once
+/// Devices from a spec string (the `--device` option of `cariesim run`): `null`,
+/// `scripted:FILE[:loop]`, `udp:PORT[:HOST]`. `replay:FILE` comes from make_replay_device
+/// (record/recorder.hpp) and `mouse` from the viewer; the run command composes them.
+
+#include <memory>
+#include <string>
+
+#include "cariesim/device/device.hpp"
+
+namespace cariesim {
+
+/// What a device needs to know about the scene it drives.
+struct DeviceOptions {
+  Pose home;                  ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
+  DeviceLimits limits;        ///< the simulator's device limits (Model::limits)
+  double udp_timeout = 0.05;  ///< s, the UDP bridge's largest accepted transit delay
+};
+
+/// Makes a device from a spec. Throws cariesim::Error naming the spec when it is unknown or bad
+/// (missing file name, port out of range, unreadable trajectory).
+std::unique_ptr<Device> make_device(const std::string& spec, const DeviceOptions& options = {});
+
+}  // namespace cariesim

@@ -1,0 +1,164 @@
+#pragma once
+/// The UDP bridge device (`udp:PORT[:HOST]`, docs/device-bridge.md). A receiver thread parses client
+/// datagrams strictly (BridgeInbox) and hands the newest valid pose to the servo thread through a
+/// TripleBuffer; the servo thread's write() hands the wrench to a sender thread through another
+/// TripleBuffer and wakes it. The servo thread never touches the socket, never locks, never allocates.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cariesim/device/device.hpp"
+#include "cariesim/device/udp_protocol.hpp"
+#include "cariesim/servo/lockfree.hpp"
+
+namespace cariesim {
+
+/// What the bridge did with one datagram.
+enum class BridgeVerdict : uint8_t {
+  AcceptedPose,   ///< a new pose for the servo thread
+  AcceptedHello,  ///< device limits; a new session began
+  Truncated,      ///< rejected: shorter than its header or type needs
+  Malformed,      ///< rejected: too long, unknown type/flags, reserved bytes set, values out of range
+  BadMagic,       ///< rejected: not this protocol
+  BadVersion,     ///< rejected: another protocol version
+  NonFinite,      ///< rejected: a NaN or infinite number
+  NonUnit,        ///< rejected: the quaternion is not unit (within bridge::kUnitTolerance)
+  Duplicate,      ///< rejected: the sequence number was seen last
+  OutOfOrder,     ///< rejected: older than the newest accepted sequence number
+  Stale,          ///< rejected: delayed in transit by more than the timeout
+  Foreign,        ///< rejected: another address while a session with a client is alive
+};
+inline constexpr std::size_t kBridgeVerdictCount = 12;
+/// "accepted_pose", "rejected_truncated", ...
+const char* bridge_verdict_name(BridgeVerdict verdict);
+
+/// The bridge's counters: datagrams by verdict, and the sender's packets.
+struct BridgeCounters {
+  std::array<uint64_t, kBridgeVerdictCount> by_verdict{};  ///< indexed by BridgeVerdict
+  uint64_t received = 0;     ///< datagrams read from the socket
+  uint64_t sent = 0;         ///< wrench packets sent
+  uint64_t send_errors = 0;  ///< sendto failures
+  uint64_t sessions = 0;     ///< sessions started (first packet, hello, or a new client after a silence)
+
+  [[nodiscard]] uint64_t operator[](BridgeVerdict v) const { return by_verdict[static_cast<std::size_t>(v)]; }
+  /// Datagrams rejected for any reason.
+  [[nodiscard]] uint64_t rejected() const;
+};
+
+/// The strict, stateful acceptance of client datagrams, without sockets (the receiver thread's
+/// logic; tests drive it directly). One thread calls accept(); counters() may be called from any.
+///
+/// A session belongs to one client address. It starts with the first valid packet, with a hello, or
+/// when a packet arrives after `session_timeout` of silence; packets from another address while it
+/// lives are Foreign. Within a session sequence numbers must increase (serial arithmetic, so they may
+/// wrap). A packet is Stale when its transit delay exceeds the timeout: the delay is measured as
+/// (receive time - client time) minus the smallest such difference seen in the session, which
+/// absorbs the offset between the two clocks (and a drift of up to 0.1 %).
+class BridgeInbox {
+ public:
+  /// `timeout` (s): the largest accepted transit delay; `session_timeout` (s): silence that ends a
+  /// session.
+  explicit BridgeInbox(double timeout = 0.05, double session_timeout = 1.0);
+  /// Judges one datagram from `source` (an opaque address key, not 0) received at `recv_time` (s,
+  /// any monotonic clock). On AcceptedPose/AcceptedHello, packet() holds it.
+  BridgeVerdict accept(const uint8_t* data, std::size_t size, uint64_t source, double recv_time);
+  /// Counts a datagram rejected before parsing (e.g. larger than any packet: Malformed).
+  void count(BridgeVerdict verdict);
+  /// The packet accepted last.
+  [[nodiscard]] const bridge::ClientPacket& packet() const { return packet_; }
+  /// The current session's client address key (0 before the first packet).
+  [[nodiscard]] uint64_t client() const { return client_; }
+  /// Datagrams by verdict and sessions (any thread).
+  [[nodiscard]] BridgeCounters counters() const;
+  /// Ends the session (the next valid packet from anyone starts one).
+  void reset_session() { session_alive_ = false; }
+
+ private:
+  BridgeVerdict judge(const uint8_t* data, std::size_t size, uint64_t source, double recv_time);
+  double timeout_, session_timeout_;
+  bridge::ClientPacket packet_;
+  uint64_t client_ = 0;
+  bool session_alive_ = false;
+  uint32_t last_sequence_ = 0;
+  double last_accept_time_ = 0.0;  // s
+  double clock_offset_ = 0.0;      // s, smallest (recv_time - client_time) of the session
+  std::array<std::atomic<uint64_t>, kBridgeVerdictCount> counts_{};
+  std::atomic<uint64_t> sessions_{0};
+};
+
+/// Settings of the UDP device.
+struct UdpOptions {
+  uint16_t port = 47000;             ///< UDP port to listen on (0: any free port, see UdpDevice::port())
+  std::string host = "127.0.0.1";    ///< address to bind ("0.0.0.0" for every interface)
+  double timeout = 0.05;             ///< s, largest transit delay of an accepted pose
+  double session_timeout = 1.0;      ///< s, silence after which another client may connect
+  DeviceLimits limits;               ///< the simulator's limits; a hello can only lower them
+  Pose home;                         ///< reported before the first pose arrives
+};
+
+class UdpDevice : public Device {
+ public:
+  explicit UdpDevice(const UdpOptions& options);
+  ~UdpDevice() override;
+  UdpDevice(const UdpDevice&) = delete;
+  UdpDevice& operator=(const UdpDevice&) = delete;
+
+  [[nodiscard]] DeviceInfo info() const override;
+  /// Binds the socket and starts the receiver and sender threads; throws cariesim::Error naming the
+  /// address when the socket cannot be bound.
+  void start() override;
+  void stop() override;
+  DeviceState read(double now) override;
+  void write(const Vec3& force, const Vec3& torque) override;
+  void set_status(const DeviceStatus& status) override;
+  [[nodiscard]] std::vector<DeviceCounter> counters() const override;
+  /// The counters as a struct (any thread).
+  [[nodiscard]] BridgeCounters bridge_counters() const;
+  /// The bound port (after start()).
+  [[nodiscard]] uint16_t port() const { return bound_port_.load(); }
+
+ private:
+  /// A pose as handed from the receiver to the servo thread.
+  struct Inbound {
+    Pose pose;
+    Vec3 velocity = Vec3::Zero();
+    Vec3 angular_velocity = Vec3::Zero();
+    uint32_t buttons = 0;
+    uint32_t packet_sequence = 0;
+    double client_time = 0.0;  // s, client clock
+    int64_t received_ns = 0;   // CLOCK_MONOTONIC
+    uint64_t count = 0;        // accepted poses so far
+  };
+  void receive_loop();
+  void send_loop();
+
+  UdpOptions options_;
+  int socket_ = -1;
+  std::atomic<bool> running_{false};
+  std::atomic<uint16_t> bound_port_{0};
+  std::thread receiver_, sender_;
+  BridgeInbox inbox_;
+  uint64_t accepted_ = 0;                    // receiver thread
+  TripleBuffer<Inbound> inbound_;            // receiver -> servo
+  TripleBuffer<bridge::WrenchPacket> outbound_;  // servo -> sender
+  std::atomic<uint32_t> outbound_ticket_{0};     // bumped per write; the sender waits on it
+  std::atomic<uint64_t> client_address_{0};      // IPv4 address << 16 | port (network order); 0 = none
+  std::atomic<double> limit_force_, limit_torque_;  // N, N·mm: min(simulator, announced)
+  std::atomic<bool> limits_acknowledged_{false};
+  std::atomic<uint64_t> sent_{0}, send_errors_{0};
+  mutable std::mutex info_mutex_;            // guards announced_ (never taken by the servo thread)
+  DeviceLimits announced_;
+  std::string remote_name_;
+  // Servo thread only.
+  Inbound latest_;
+  bool have_pose_ = false;
+  double last_now_ = 0.0;
+  DeviceStatus status_;
+};
+
+}  // namespace cariesim

@@ -1,0 +1,364 @@
+#include "cariesim/device/udp_device.hpp"
+
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+
+#include <spdlog/spdlog.h>
+
+#include "cariesim/common/error.hpp"
+
+namespace cariesim {
+
+namespace {
+
+// The drift between client and simulator clocks that the staleness test absorbs (0.1 %).
+constexpr double kDriftAllowance = 1e-3;
+// How long the receiver blocks in recvfrom before it looks at the running flag again.
+constexpr long kReceivePollUs = 20000;
+
+int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+uint64_t address_key(const sockaddr_in& a) {
+  return (static_cast<uint64_t>(a.sin_addr.s_addr) << 16) | a.sin_port;
+}
+
+sockaddr_in address_from_key(uint64_t key) {
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = static_cast<in_port_t>(key & 0xffffu);
+  a.sin_addr.s_addr = static_cast<in_addr_t>(key >> 16);
+  return a;
+}
+
+// Serial-number comparison (RFC 1982 style): > 0 when `a` is newer than `b`.
+int32_t sequence_diff(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
+
+BridgeVerdict verdict_of(bridge::ParseResult r) {
+  switch (r) {
+    case bridge::ParseResult::Pose: return BridgeVerdict::AcceptedPose;
+    case bridge::ParseResult::Hello: return BridgeVerdict::AcceptedHello;
+    case bridge::ParseResult::Truncated: return BridgeVerdict::Truncated;
+    case bridge::ParseResult::BadMagic: return BridgeVerdict::BadMagic;
+    case bridge::ParseResult::BadVersion: return BridgeVerdict::BadVersion;
+    case bridge::ParseResult::NonFinite: return BridgeVerdict::NonFinite;
+    case bridge::ParseResult::NonUnit: return BridgeVerdict::NonUnit;
+    case bridge::ParseResult::Wrench:
+    case bridge::ParseResult::Malformed: return BridgeVerdict::Malformed;
+  }
+  return BridgeVerdict::Malformed;
+}
+
+// Clamps a vector's length to `limit`.
+Vec3 clamped(const Vec3& v, double limit) {
+  const double n = v.norm();
+  return n > limit ? Vec3(v * (limit / n)) : v;
+}
+
+}  // namespace
+
+const char* bridge_verdict_name(BridgeVerdict verdict) {
+  switch (verdict) {
+    case BridgeVerdict::AcceptedPose: return "accepted_pose";
+    case BridgeVerdict::AcceptedHello: return "accepted_hello";
+    case BridgeVerdict::Truncated: return "rejected_truncated";
+    case BridgeVerdict::Malformed: return "rejected_malformed";
+    case BridgeVerdict::BadMagic: return "rejected_bad_magic";
+    case BridgeVerdict::BadVersion: return "rejected_bad_version";
+    case BridgeVerdict::NonFinite: return "rejected_non_finite";
+    case BridgeVerdict::NonUnit: return "rejected_non_unit";
+    case BridgeVerdict::Duplicate: return "rejected_duplicate";
+    case BridgeVerdict::OutOfOrder: return "rejected_out_of_order";
+    case BridgeVerdict::Stale: return "rejected_stale";
+    case BridgeVerdict::Foreign: return "rejected_foreign";
+  }
+  return "unknown";
+}
+
+uint64_t BridgeCounters::rejected() const {
+  uint64_t n = 0;
+  for (std::size_t v = static_cast<std::size_t>(BridgeVerdict::Truncated); v < kBridgeVerdictCount; ++v)
+    n += by_verdict[v];
+  return n;
+}
+
+BridgeInbox::BridgeInbox(double timeout, double session_timeout)
+    : timeout_(timeout), session_timeout_(session_timeout) {}
+
+void BridgeInbox::count(BridgeVerdict verdict) {
+  // Single writer: a relaxed load and store is race-free and cheaper than fetch_add.
+  auto& c = counts_[static_cast<std::size_t>(verdict)];
+  c.store(c.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+}
+
+BridgeVerdict BridgeInbox::accept(const uint8_t* data, std::size_t size, uint64_t source, double recv_time) {
+  const BridgeVerdict v = judge(data, size, source, recv_time);
+  count(v);
+  return v;
+}
+
+BridgeVerdict BridgeInbox::judge(const uint8_t* data, std::size_t size, uint64_t source, double recv_time) {
+  // Strict parse first: a datagram that is not a valid packet changes nothing.
+  const BridgeVerdict parsed = verdict_of(bridge::parse_client_packet(data, size, packet_));
+  if (parsed != BridgeVerdict::AcceptedPose && parsed != BridgeVerdict::AcceptedHello) return parsed;
+  const bool hello = parsed == BridgeVerdict::AcceptedHello;
+  const uint32_t sequence = hello ? packet_.hello.sequence : packet_.pose.sequence;
+  const double client_time = hello ? packet_.hello.client_time : packet_.pose.client_time;
+
+  // A session lives while its client keeps sending; meanwhile other addresses are refused.
+  if (session_alive_ && recv_time - last_accept_time_ > session_timeout_) session_alive_ = false;
+  if (session_alive_ && source != client_) return BridgeVerdict::Foreign;
+
+  // A hello, or the first packet after a silence, starts a session: any sequence number is fine and
+  // the clock offset is measured afresh.
+  const double offset_sample = recv_time - client_time;
+  if (hello || !session_alive_) {
+    session_alive_ = true;
+    client_ = source;
+    clock_offset_ = offset_sample;
+    sessions_.store(sessions_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  } else {
+    // Within a session: strictly increasing sequence numbers, bounded transit delay.
+    const int32_t d = sequence_diff(sequence, last_sequence_);
+    if (d == 0) return BridgeVerdict::Duplicate;
+    if (d < 0) return BridgeVerdict::OutOfOrder;
+    const double relaxed_offset = clock_offset_ + kDriftAllowance * std::max(recv_time - last_accept_time_, 0.0);
+    if (offset_sample - relaxed_offset > timeout_) return BridgeVerdict::Stale;
+    clock_offset_ = std::min(relaxed_offset, offset_sample);
+  }
+  last_sequence_ = sequence;
+  last_accept_time_ = recv_time;
+  return parsed;
+}
+
+BridgeCounters BridgeInbox::counters() const {
+  BridgeCounters c;
+  for (std::size_t v = 0; v < kBridgeVerdictCount; ++v) c.by_verdict[v] = counts_[v].load(std::memory_order_relaxed);
+  c.sessions = sessions_.load(std::memory_order_relaxed);
+  for (uint64_t n : c.by_verdict) c.received += n;
+  return c;
+}
+
+UdpDevice::UdpDevice(const UdpOptions& options)
+    : options_(options),
+      inbox_(options.timeout, options.session_timeout),
+      limit_force_(options.limits.max_force),
+      limit_torque_(options.limits.max_torque),
+      announced_(options.limits) {
+  latest_.pose = options.home;
+}
+
+UdpDevice::~UdpDevice() { stop(); }
+
+DeviceInfo UdpDevice::info() const {
+  DeviceInfo info;
+  info.name = "udp";
+  std::lock_guard<std::mutex> lock(info_mutex_);
+  info.description = options_.host + ":" + std::to_string(bound_port_.load() ? bound_port_.load() : options_.port);
+  if (!remote_name_.empty()) info.description += " (" + remote_name_ + ")";
+  info.limits = announced_;
+  info.renders_force = true;
+  return info;
+}
+
+void UdpDevice::start() {
+  if (running_.load()) return;
+  // Resolve the bind address (IPv4) and bind a datagram socket.
+  const std::string where = "udp:" + std::to_string(options_.port) + ":" + options_.host;
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_DGRAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (const int rc = getaddrinfo(options_.host.c_str(), nullptr, &hints, &found); rc != 0 || found == nullptr)
+    throw Error(where + ": cannot resolve host '" + options_.host + "': " + gai_strerror(rc));
+  sockaddr_in bind_address{};
+  std::memcpy(&bind_address, found->ai_addr, sizeof(bind_address));
+  freeaddrinfo(found);
+  bind_address.sin_port = htons(options_.port);
+  socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (socket_ < 0) throw Error(where + ": cannot create a UDP socket: " + std::strerror(errno));
+  if (::bind(socket_, reinterpret_cast<const sockaddr*>(&bind_address), sizeof(bind_address)) != 0) {
+    const int err = errno;
+    ::close(socket_);
+    socket_ = -1;
+    throw Error(where + ": cannot bind: " + std::strerror(err));
+  }
+  // The receiver wakes up regularly to notice stop().
+  timeval poll{0, kReceivePollUs};
+  setsockopt(socket_, SOL_SOCKET, SO_RCVTIMEO, &poll, sizeof(poll));
+  sockaddr_in bound{};
+  socklen_t bound_size = sizeof(bound);
+  getsockname(socket_, reinterpret_cast<sockaddr*>(&bound), &bound_size);
+  bound_port_.store(ntohs(bound.sin_port));
+
+  // A new start is a new session: forget the old client, pose and wrench (no thread runs yet).
+  inbox_.reset_session();
+  client_address_.store(0);
+  have_pose_ = false;
+  latest_ = Inbound{};
+  Inbound old_pose;
+  inbound_.read(old_pose);
+  bridge::WrenchPacket old_wrench;
+  outbound_.read(old_wrench);
+  latest_.pose = options_.home;
+  running_.store(true);
+  receiver_ = std::thread([this] { receive_loop(); });
+  sender_ = std::thread([this] { send_loop(); });
+  spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
+}
+
+void UdpDevice::stop() {
+  if (!running_.exchange(false)) return;
+  // Wake the sender; the receiver notices within one receive timeout.
+  outbound_ticket_.fetch_add(1);
+  outbound_ticket_.notify_all();
+  receiver_.join();
+  sender_.join();
+  ::close(socket_);
+  socket_ = -1;
+}
+
+void UdpDevice::receive_loop() {
+  // One buffer larger than any packet, so oversized datagrams are seen (and rejected) whole.
+  std::array<uint8_t, 2048> buffer{};
+  while (running_.load(std::memory_order_relaxed)) {
+    sockaddr_in from{};
+    socklen_t from_size = sizeof(from);
+    const ssize_t n = ::recvfrom(socket_, buffer.data(), buffer.size(), MSG_TRUNC,
+                                 reinterpret_cast<sockaddr*>(&from), &from_size);
+    if (n < 0) continue;  // timeout (to look at running_) or a transient error
+    const int64_t now_ns = monotonic_ns();
+    if (static_cast<std::size_t>(n) > buffer.size()) {
+      inbox_.count(BridgeVerdict::Malformed);
+      continue;
+    }
+    const uint64_t source = address_key(from);
+    const BridgeVerdict v =
+        inbox_.accept(buffer.data(), static_cast<std::size_t>(n), source, static_cast<double>(now_ns) * 1e-9);
+    if (v == BridgeVerdict::AcceptedPose) {
+      // Hand the pose to the servo thread and answer this client from now on.
+      const bridge::PosePacket& p = inbox_.packet().pose;
+      Inbound in;
+      in.pose = p.pose;
+      in.velocity = p.velocity;
+      in.angular_velocity = p.angular_velocity;
+      in.buttons = p.buttons;
+      in.packet_sequence = p.sequence;
+      in.client_time = p.client_time;
+      in.received_ns = now_ns;
+      in.count = ++accepted_;
+      inbound_.write(in);
+      client_address_.store(source);
+    } else if (v == BridgeVerdict::AcceptedHello) {
+      // The device's limits can only lower the simulator's.
+      const bridge::HelloPacket& h = inbox_.packet().hello;
+      {
+        std::lock_guard<std::mutex> lock(info_mutex_);
+        announced_.max_force = std::min(options_.limits.max_force, h.max_force);
+        announced_.max_stiffness = std::min(options_.limits.max_stiffness, h.max_stiffness);
+        announced_.max_torque = std::min(options_.limits.max_torque, h.max_torque);
+        announced_.workspace = Eigen::AlignedBox3d(h.workspace_min, h.workspace_max);
+        remote_name_ = std::string(h.name_view());
+        limit_force_.store(announced_.max_force);
+        limit_torque_.store(announced_.max_torque);
+      }
+      limits_acknowledged_.store(true);
+      client_address_.store(source);
+      spdlog::debug("udp device: hello from '{}' ({} N, {} N/mm, {} N·mm)", h.name_view(), h.max_force,
+                    h.max_stiffness, h.max_torque);
+    }
+  }
+}
+
+void UdpDevice::send_loop() {
+  uint32_t seen = outbound_ticket_.load();
+  std::array<uint8_t, bridge::kWrenchSize> buffer{};
+  while (true) {
+    // Sleep until the servo thread writes (or stop() wakes us).
+    outbound_ticket_.wait(seen);
+    seen = outbound_ticket_.load();
+    if (!running_.load()) break;
+    bridge::WrenchPacket w;
+    if (!outbound_.read(w)) continue;
+    const uint64_t client = client_address_.load();
+    if (client == 0) continue;
+    const sockaddr_in to = address_from_key(client);
+    const std::size_t size = bridge::encode_wrench(w, buffer.data(), buffer.size());
+    if (::sendto(socket_, buffer.data(), size, 0, reinterpret_cast<const sockaddr*>(&to), sizeof(to)) ==
+        static_cast<ssize_t>(size))
+      sent_.fetch_add(1, std::memory_order_relaxed);
+    else
+      send_errors_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+DeviceState UdpDevice::read(double now) {
+  // Take the newest pose the receiver handed over, if any.
+  if (inbound_.read(latest_)) have_pose_ = true;
+  last_now_ = now;
+  DeviceState s;
+  s.pose = latest_.pose;
+  s.velocity = latest_.velocity;
+  s.angular_velocity = latest_.angular_velocity;
+  s.buttons = latest_.buttons;
+  s.sequence = latest_.count;
+  s.valid = have_pose_;
+  // Its age on the monotonic clock, expressed on the servo clock.
+  s.stamp = have_pose_ ? now - static_cast<double>(monotonic_ns() - latest_.received_ns) * 1e-9 : now;
+  return s;
+}
+
+void UdpDevice::set_status(const DeviceStatus& status) { status_ = status; }
+
+void UdpDevice::write(const Vec3& force, const Vec3& torque) {
+  // The answer to the pose used this cycle, clamped to the limits the device announced.
+  bridge::WrenchPacket w;
+  w.sequence = latest_.packet_sequence;
+  w.client_time = latest_.client_time;
+  w.server_time = last_now_;
+  w.force = clamped(force.allFinite() ? force : Vec3::Zero(), limit_force_.load(std::memory_order_relaxed));
+  w.torque = clamped(torque.allFinite() ? torque : Vec3::Zero(), limit_torque_.load(std::memory_order_relaxed));
+  w.state = static_cast<uint8_t>(status_.state);
+  w.depth = std::isfinite(status_.depth) ? status_.depth : 0.0;
+  w.flags = static_cast<uint16_t>(status_.safety_flags & 0x7fu);
+  if (limits_acknowledged_.load(std::memory_order_relaxed)) w.flags |= bridge::kWrenchLimitsAcknowledged;
+  if (!have_pose_) return;  // nobody to answer yet
+  // Hand it to the sender and wake it (a futex wake when it sleeps; no lock).
+  outbound_.write(w);
+  outbound_ticket_.fetch_add(1, std::memory_order_release);
+  outbound_ticket_.notify_one();
+}
+
+BridgeCounters UdpDevice::bridge_counters() const {
+  BridgeCounters c = inbox_.counters();
+  c.sent = sent_.load(std::memory_order_relaxed);
+  c.send_errors = send_errors_.load(std::memory_order_relaxed);
+  return c;
+}
+
+std::vector<DeviceCounter> UdpDevice::counters() const {
+  const BridgeCounters c = bridge_counters();
+  std::vector<DeviceCounter> out;
+  out.push_back({"received", c.received});
+  for (std::size_t v = 0; v < kBridgeVerdictCount; ++v)
+    out.push_back({bridge_verdict_name(static_cast<BridgeVerdict>(v)), c.by_verdict[v]});
+  out.push_back({"sessions", c.sessions});
+  out.push_back({"sent", c.sent});
+  out.push_back({"send_errors", c.send_errors});
+  return out;
+}
+
+}  // namespace cariesim

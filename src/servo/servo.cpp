@@ -1,0 +1,254 @@
+#include "cariesim/servo/servo.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+
+#include <spdlog/spdlog.h>
+
+#include "cariesim/common/error.hpp"
+
+namespace cariesim {
+
+namespace {
+
+constexpr double kMaxRateHz = 10000.0;
+constexpr int kMaxChangesPerCycle = 32;  // parameter changes applied between two steps, at most
+
+int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+// Sleeps until the absolute CLOCK_MONOTONIC time `deadline_ns`.
+void sleep_until(int64_t deadline_ns) {
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(deadline_ns / 1000000000);
+  ts.tv_nsec = static_cast<long>(deadline_ns % 1000000000);
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+// Single-writer increment of an atomic counter (no read-modify-write needed).
+void bump(std::atomic<uint64_t>& counter) {
+  counter.store(counter.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+TimingHistogram& TimingHistogram::operator=(const TimingHistogram& other) {
+  if (this == &other) return *this;
+  for (int b = 0; b < kBins; ++b) bins_[b].store(other.bins_[b].load(std::memory_order_relaxed), std::memory_order_relaxed);
+  count_.store(other.count(), std::memory_order_relaxed);
+  max_.store(other.max(), std::memory_order_relaxed);
+  return *this;
+}
+
+void TimingHistogram::add(double us) {
+  if (!(us >= 0.0)) us = 0.0;  // negative or NaN
+  const double scaled = us / kBinUs;
+  const int bin = scaled >= kBins - 1 ? kBins - 1 : static_cast<int>(scaled);
+  bins_[bin].store(bins_[bin].load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  count_.store(count_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  if (us > max_.load(std::memory_order_relaxed)) max_.store(us, std::memory_order_relaxed);
+}
+
+double TimingHistogram::percentile(double p) const {
+  // Count what the bins hold now (self-consistent even while another thread adds).
+  uint64_t n = 0;
+  for (const auto& b : bins_) n += b.load(std::memory_order_relaxed);
+  if (n == 0) return 0.0;
+  const double fraction = std::isfinite(p) ? std::clamp(p, 0.0, 1.0) : 1.0;
+  const auto target = std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(fraction * static_cast<double>(n))));
+  const double top = max();
+  uint64_t cumulative = 0;
+  for (int b = 0; b < kBins - 1; ++b) {
+    cumulative += bins_[b].load(std::memory_order_relaxed);
+    if (cumulative >= target) return std::min((b + 1) * kBinUs, top);
+  }
+  return top;  // the overflow bin: its values are only bounded by the maximum
+}
+
+void TimingHistogram::reset() {
+  for (auto& b : bins_) b.store(0, std::memory_order_relaxed);
+  count_.store(0, std::memory_order_relaxed);
+  max_.store(0.0, std::memory_order_relaxed);
+}
+
+ServoLoop::ServoLoop(Model& model, Device& device, const ServoOptions& options)
+    : model_(model), device_(device), options_(options), dt_(0.0), period_ns_(0) {
+  if (!(options.rate_hz > 0.0 && options.rate_hz <= kMaxRateHz))
+    throw Error("servo rate " + std::to_string(options.rate_hz) + " Hz is outside (0, 10000]");
+  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.rate_hz));
+  dt_ = static_cast<double>(period_ns_) * 1e-9;
+  // The safety limits: the lower of the options' and the device's.
+  SafetyParams params = options.safety;
+  const DeviceLimits limits = device.info().limits;
+  params.max_force = std::min(params.max_force, limits.max_force);
+  params.max_torque = std::min(params.max_torque, limits.max_torque);
+  safety_ = ForceSafety(params);
+  state_ = std::make_unique<State>(model, model.tool_home);
+  last_good_ = state_->graphic();
+}
+
+ServoLoop::~ServoLoop() { stop(); }
+
+void ServoLoop::start() {
+  if (running_.load()) return;
+  device_.start();
+  safety_.reset();
+  running_.store(true);
+  thread_ = std::thread([this] { run(); });
+  // Ask for real-time priority for the servo thread, and say what happened.
+  if (!options_.realtime) {
+    realtime_status_ = "not requested (normal priority)";
+    return;
+  }
+  sched_param sp{};
+  sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
+                                 sched_get_priority_max(SCHED_FIFO));
+  const int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
+  if (rc == 0) {
+    realtime_status_ = "SCHED_FIFO priority " + std::to_string(sp.sched_priority);
+  } else {
+    realtime_status_ = std::string("refused: ") + std::strerror(rc) +
+                       " (needs CAP_SYS_NICE or an rtprio limit); normal priority";
+    spdlog::warn("servo: real-time priority {}", realtime_status_);
+  }
+}
+
+void ServoLoop::stop() {
+  if (!running_.exchange(false)) return;
+  thread_.join();
+  device_.stop();
+}
+
+std::string ServoLoop::realtime_status() const { return realtime_status_; }
+
+TimingReport ServoLoop::timing() const {
+  TimingReport r;
+  r.step_p50 = step_hist_.percentile(0.5);
+  r.step_p99 = step_hist_.percentile(0.99);
+  r.step_p999 = step_hist_.percentile(0.999);
+  r.step_max = step_hist_.max();
+  r.jitter_p50 = jitter_hist_.percentile(0.5);
+  r.jitter_p99 = jitter_hist_.percentile(0.99);
+  r.jitter_p999 = jitter_hist_.percentile(0.999);
+  r.jitter_max = jitter_hist_.max();
+  r.cycles = cycles_.load();
+  r.overruns = overruns_.load();
+  const double elapsed = elapsed_.load();
+  r.rate_hz = elapsed > 0.0 ? static_cast<double>(r.cycles) / elapsed : 0.0;
+  return r;
+}
+
+void ServoLoop::run() {
+  const int64_t start_ns = monotonic_ns();
+  const double elapsed_before = elapsed_.load(std::memory_order_relaxed);
+  int64_t deadline = start_ns;
+  double t = time_base_;
+  rate_mark_ns_ = start_ns;
+  rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
+  measured_rate_ = options_.rate_hz;
+  while (running_.load(std::memory_order_relaxed)) {
+    // Wait for the absolute deadline; how late we woke is the jitter.
+    sleep_until(deadline);
+    const int64_t wake = monotonic_ns();
+    jitter_hist_.add(static_cast<double>(wake - deadline) * 1e-3);
+    t = time_base_ + static_cast<double>(deadline - start_ns) * 1e-9;
+    const int64_t end = cycle(t, deadline, wake);
+
+    // The next deadline, one fixed period on; skip the ones already missed by more than a period.
+    deadline += period_ns_;
+    if (end - deadline > period_ns_) deadline += (end - deadline) / period_ns_ * period_ns_;
+    elapsed_.store(elapsed_before + static_cast<double>(end - start_ns) * 1e-9, std::memory_order_relaxed);
+  }
+  // Leave the device with no force, and continue the servo clock at the next start.
+  device_.set_status(DeviceStatus{state_->interaction(), state_->depth(), 0, 0});
+  device_.write(Vec3::Zero(), Vec3::Zero());
+  time_base_ = t + dt_;
+}
+
+int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
+  // Parameter changes queued by the UI, applied between two steps.
+  ParamChange change;
+  for (int i = 0; i < kMaxChangesPerCycle && changes_.pop(change); ++i) {
+    bool applied = false;
+    if (change.field == ParamChange::Field::ForceScale) {
+      applied = std::isfinite(change.value) && change.value >= 0.0 && change.value <= 1.0;
+      if (applied) safety_.set_force_scale(change.value);
+    } else {
+      applied = apply_param_change(model_, change);
+    }
+    if (!applied) bump(rejected_changes_);
+  }
+
+  // Read the device; an unusable reading is replaced by the last good pose.
+  const DeviceState input = device_.read(t);
+  if (input.valid && input.pose.finite()) last_good_ = input.pose;
+
+  // Step the engine with the fixed dt, filter the wrench, render it.
+  const StepOutput out = step(model_, *state_, HapticInput{last_good_, dt_});
+  Vec3 force = out.force;
+  Vec3 torque = out.torque;
+  safety_.filter(force, torque, input, t);
+  device_.set_status(DeviceStatus{out.state, out.depth, safety_.flags(), out.flags});
+  device_.write(force, torque);
+
+  // Timing of this cycle's work; an overrun ended after the next deadline.
+  const int64_t end = monotonic_ns();
+  const double work_us = static_cast<double>(end - wake_ns) * 1e-3;
+  step_hist_.add(work_us);
+  const bool overrun = end > deadline_ns + period_ns_;
+  if (overrun) bump(overruns_);
+  bump(cycles_);
+  const uint64_t cycles = cycles_.load(std::memory_order_relaxed);
+  if (wake_ns - rate_mark_ns_ >= 1000000000) {
+    measured_rate_ = static_cast<double>(cycles - rate_mark_cycles_) * 1e9 / static_cast<double>(wake_ns - rate_mark_ns_);
+    rate_mark_ns_ = wake_ns;
+    rate_mark_cycles_ = cycles;
+  }
+
+  // Publish the snapshot for the viewer.
+  snapshot_.out = out;
+  snapshot_.device = input;
+  snapshot_.force = force;
+  snapshot_.torque = torque;
+  snapshot_.safety_flags = safety_.flags();
+  snapshot_.t = t;
+  snapshot_.cycle = cycles;
+  snapshot_.overruns = overruns_.load(std::memory_order_relaxed);
+  snapshot_.rate_hz = measured_rate_;
+  snapshot_.safety_faults = safety_.faults();
+  snapshots_.write(snapshot_);
+
+  // The sample for the recorder; dropped (and counted) when its queue is full.
+  if (options_.record != nullptr) {
+    ServoSample s;
+    s.t = t;
+    s.haptic = out.haptic;
+    s.graphic = out.graphic;
+    s.force = force;
+    s.torque = torque;
+    s.depth = static_cast<float>(out.depth);
+    s.step_us = static_cast<float>(out.step_us);
+    s.soft_tissue_force = static_cast<float>(out.soft_tissue_force);
+    s.step_flags = out.flags;
+    s.safety_flags = safety_.flags();
+    s.contacts = static_cast<uint16_t>(std::clamp(out.contacts, 0, 65535));
+    s.lesion = static_cast<int8_t>(std::clamp(out.lesion, -1, 127));
+    s.state = out.state;
+    s.overrun = overrun;
+    s.buttons = input.buttons;
+    if (!options_.record->push(s)) bump(dropped_);
+  }
+  return end;
+}
+
+}  // namespace cariesim
