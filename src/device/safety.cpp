@@ -7,8 +7,8 @@ namespace cariesim {
 
 namespace {
 
-// A finite, non-negative value, or the fallback.
-double sane(double value, double fallback) { return std::isfinite(value) && value >= 0.0 ? value : fallback; }
+// A negative value becomes 0 (the safe side), a non-finite one the fallback.
+double sane(double value, double fallback) { return std::isfinite(value) ? std::max(value, 0.0) : fallback; }
 
 // Shortens `v` to length `limit` when it is longer; returns true when it did.
 bool clamp_norm(Vec3& v, double limit) {

@@ -284,9 +284,11 @@ void UdpDevice::receive_loop() {
 }
 
 void UdpDevice::send_loop() {
-  uint32_t seen = outbound_ticket_.load();
   std::array<uint8_t, bridge::kWrenchSize> buffer{};
-  while (true) {
+  // The ticket is loaded before running_ is checked, so a stop() that bumps it in between is seen
+  // by wait() instead of being slept through.
+  uint32_t seen = outbound_ticket_.load();
+  while (running_.load()) {
     // Sleep until the servo thread writes (or stop() wakes us).
     outbound_ticket_.wait(seen);
     seen = outbound_ticket_.load();

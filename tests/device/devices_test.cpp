@@ -1,0 +1,156 @@
+// The hardware-free devices (null, scripted) and the device factory's specs.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/device/devices.hpp"
+#include "cariesim/device/factory.hpp"
+#include "cariesim/device/udp_device.hpp"
+
+namespace cariesim {
+namespace {
+
+// A 1 s trajectory: 10 mm along x at constant speed, turning 0.5 rad about z.
+Trajectory straight_line() {
+  Trajectory tr;
+  tr.add(2.0, Pose{Vec3(0, 0, 0), Quat::Identity()});
+  tr.add(3.0, Pose{Vec3(10, 0, 0), quat_from_rotation_vector(Vec3(0, 0, 0.5))});
+  return tr;
+}
+
+std::filesystem::path temp_file(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("cariesim_device_test_" + name);
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(NullDevice, HoldsItsPose) {
+  const Pose home{Vec3(1, 2, 3), quat_from_rotation_vector(Vec3(0.1, 0, 0))};
+  NullDevice d(home);
+  EXPECT_EQ(d.info().name, "null");
+  EXPECT_FALSE(d.info().renders_force);
+  const DeviceState a = d.read(0.5);
+  d.write(Vec3(1, 1, 1), Vec3::Zero());
+  const DeviceState b = d.read(0.6);
+  for (const DeviceState& s : {a, b}) {
+    EXPECT_TRUE(s.valid);
+    EXPECT_EQ(s.pose.p, home.p);
+    EXPECT_TRUE(s.pose.q.isApprox(home.q));
+    EXPECT_TRUE(s.velocity.isZero());
+  }
+  EXPECT_DOUBLE_EQ(b.stamp, 0.6);
+  EXPECT_GT(b.sequence, a.sequence);
+}
+
+TEST(ScriptedDevice, FollowsTheTrajectoryOnTheServoClock) {
+  ScriptedDevice d(straight_line(), false, "line");
+  d.start();
+  // The first read is the trajectory's start, whatever the servo time.
+  const DeviceState s0 = d.read(100.0);
+  EXPECT_TRUE(s0.valid);
+  EXPECT_TRUE(s0.pose.p.isZero());
+  EXPECT_TRUE(s0.velocity.isZero());
+  const DeviceState s1 = d.read(100.25);
+  EXPECT_NEAR(s1.pose.p.x(), 2.5, 1e-12);
+  EXPECT_NEAR(s1.velocity.x(), 10.0, 1e-9);  // mm/s, finite difference
+  EXPECT_NEAR(s1.angular_velocity.z(), 0.5, 1e-9);
+  EXPECT_DOUBLE_EQ(s1.stamp, 100.25);
+  EXPECT_GT(s1.sequence, s0.sequence);
+  const DeviceState s2 = d.read(100.5);
+  EXPECT_NEAR(s2.pose.p.x(), 5.0, 1e-12);
+  EXPECT_NEAR(rotation_vector(s2.pose.q).z(), 0.25, 1e-12);
+  EXPECT_FALSE(d.finished());
+}
+
+TEST(ScriptedDevice, EndsInvalidHoldingTheLastPose) {
+  ScriptedDevice d(straight_line(), false, "line");
+  d.start();
+  d.read(0.0);
+  EXPECT_TRUE(d.read(1.0).valid);  // the last sample itself
+  const DeviceState after = d.read(1.001);
+  EXPECT_FALSE(after.valid);
+  EXPECT_TRUE(d.finished());
+  EXPECT_NEAR(after.pose.p.x(), 10.0, 1e-12);
+  EXPECT_TRUE(after.velocity.isZero());
+  // start() rewinds.
+  d.start();
+  EXPECT_TRUE(d.read(7.0).valid);
+  EXPECT_NEAR(d.read(7.5).pose.p.x(), 5.0, 1e-12);
+}
+
+TEST(ScriptedDevice, LoopsWhenAsked) {
+  ScriptedDevice d(straight_line(), true, "line");
+  d.start();
+  d.read(0.0);
+  const DeviceState s = d.read(2.25);  // a quarter into the third pass
+  EXPECT_TRUE(s.valid);
+  EXPECT_NEAR(s.pose.p.x(), 2.5, 1e-9);
+  EXPECT_FALSE(d.finished());
+  EXPECT_NE(d.info().description.find("loop"), std::string::npos);
+}
+
+TEST(ScriptedDevice, RefusesAnEmptyTrajectory) { EXPECT_THROW(ScriptedDevice(Trajectory{}, false, "x"), Error); }
+
+TEST(DeviceFactory, MakesEachKind) {
+  DeviceOptions options;
+  options.home.p = Vec3(4, 5, 6);
+  auto null = make_device("null", options);
+  EXPECT_EQ(null->info().name, "null");
+  EXPECT_EQ(null->read(0.0).pose.p, Vec3(4, 5, 6));
+
+  const auto csv = temp_file("line.csv", "t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,10,0,0,1,0,0,0\n");
+  auto once = make_device("scripted:" + csv.string(), options);
+  EXPECT_EQ(once->info().name, "scripted");
+  EXPECT_EQ(once->info().description.find("loop"), std::string::npos);
+  auto looped = make_device("scripted:" + csv.string() + ":loop", options);
+  looped->start();
+  looped->read(0.0);
+  EXPECT_TRUE(looped->read(5.5).valid);
+
+  auto udp = make_device("udp:0:127.0.0.1", options);
+  EXPECT_EQ(udp->info().name, "udp");
+  udp->start();
+  EXPECT_GT(dynamic_cast<UdpDevice&>(*udp).port(), 0);
+  EXPECT_FALSE(udp->read(0.0).valid);  // no client yet
+  EXPECT_EQ(udp->read(0.0).pose.p, Vec3(4, 5, 6));
+  udp->stop();
+  udp->stop();
+  std::filesystem::remove(csv);
+}
+
+TEST(DeviceFactory, BadSpecsNameTheSpec) {
+  const auto bad_csv = temp_file("bad.csv", "t,px\n0,1\n");
+  for (const std::string& spec :
+       {std::string("nul"), std::string(""), std::string("null:x"), std::string("scripted"), std::string("scripted:"),
+        std::string("scripted:/no/such/file.csv"), "scripted:" + bad_csv.string(), std::string("udp"),
+        std::string("udp:"), std::string("udp:port"), std::string("udp:70000"), std::string("udp:-1"),
+        std::string("udp:47000:"), std::string("replay:x.db"), std::string("mouse")}) {
+    try {
+      make_device(spec);
+      ADD_FAILURE() << "no error for '" << spec << "'";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("'" + spec + "'"), std::string::npos) << e.what();
+    }
+  }
+  std::filesystem::remove(bad_csv);
+}
+
+TEST(DeviceFactory, UdpBindFailureNamesTheAddress) {
+  auto a = make_device("udp:0");
+  a->start();
+  const uint16_t port = dynamic_cast<UdpDevice&>(*a).port();
+  auto b = make_device("udp:" + std::to_string(port));
+  try {
+    b->start();
+    ADD_FAILURE() << "bound the same port twice";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(std::to_string(port)), std::string::npos) << e.what();
+  }
+  auto c = make_device("udp:0:192.0.2.1");  // a documentation address no interface has
+  EXPECT_THROW(c->start(), Error);
+}
+
+}  // namespace
+}  // namespace cariesim

@@ -1,0 +1,275 @@
+// The UDP bridge end to end over loopback: a client socket streams poses to a UdpDevice driven by a
+// real ServoLoop on friction-block; wrenches come back echoing the sequence numbers; malformed,
+// truncated, out-of-order, duplicate, stale, non-finite, non-unit and foreign packets are rejected and
+// counted while the loop runs on; silence zeroes the force. No wall-clock timing is asserted.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <thread>
+#include <vector>
+
+#include "cariesim/device/safety.hpp"
+#include "cariesim/device/udp_device.hpp"
+#include "cariesim/servo/servo.hpp"
+#include "servo/servo_support.hpp"
+#include "support/alloc_counter.hpp"
+
+namespace cariesim {
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+
+double client_clock() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// A UDP socket connected to the device's port.
+class Client {
+ public:
+  explicit Client(uint16_t port) {
+    fd_ = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(port);
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(::connect(fd_, reinterpret_cast<sockaddr*>(&to), sizeof(to)), 0);
+  }
+  ~Client() { ::close(fd_); }
+  void send(const uint8_t* data, std::size_t size) const { EXPECT_EQ(::send(fd_, data, size, 0), static_cast<ssize_t>(size)); }
+  void send(const Bytes& b) const { send(b.data(), b.size()); }
+  // Every wrench that arrived, in order (non-blocking).
+  void drain(std::vector<bridge::WrenchPacket>& out, int& invalid) const {
+    uint8_t buffer[256];
+    while (true) {
+      const ssize_t n = ::recv(fd_, buffer, sizeof(buffer), MSG_DONTWAIT);
+      if (n < 0) return;
+      bridge::WrenchPacket w;
+      if (bridge::parse_wrench(buffer, static_cast<std::size_t>(n), w) == bridge::ParseResult::Wrench)
+        out.push_back(w);
+      else
+        ++invalid;
+    }
+  }
+
+ private:
+  int fd_ = -1;
+};
+
+Bytes pose_packet(uint32_t sequence, double client_time, const Pose& pose) {
+  bridge::PosePacket p;
+  p.sequence = sequence;
+  p.client_time = client_time;
+  p.pose = pose;
+  Bytes b(bridge::kMaxPacketSize);
+  b.resize(bridge::encode_pose(p, b.data(), b.size()));
+  return b;
+}
+
+Bytes hello_packet(uint32_t sequence, double max_force) {
+  bridge::HelloPacket h;
+  h.sequence = sequence;
+  h.client_time = client_clock();
+  h.max_force = max_force;
+  h.max_stiffness = 1.0;
+  h.max_torque = 300.0;
+  h.workspace_min = Vec3::Constant(-100);
+  h.workspace_max = Vec3::Constant(100);
+  std::memcpy(h.name.data(), "loopback test", 13);
+  Bytes b(bridge::kMaxPacketSize);
+  b.resize(bridge::encode_hello(h, b.data(), b.size()));
+  return b;
+}
+
+struct Bridge {
+  explicit Bridge(Model& model) : device(options(model)), loop(model, device, servo_options()) {}
+  static UdpOptions options(const Model& m) {
+    UdpOptions o;
+    o.port = 0;
+    o.home = m.tool_home;
+    o.limits = m.limits;
+    return o;
+  }
+  static ServoOptions servo_options() {
+    ServoOptions o;
+    o.realtime = false;
+    o.safety.ramp_time = 0.05;
+    return o;
+  }
+  UdpDevice device;
+  ServoLoop loop;
+};
+
+TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
+  Model model = test::friction_block();
+  Bridge bridge(model);
+  bridge.loop.start();  // starts the device too
+  ASSERT_GT(bridge.device.port(), 0);
+  Client client(bridge.device.port());
+  const Trajectory path = test::press_and_slide(model, 1.0, 1.0);
+  TrajectoryCursor cursor(path);
+  std::map<uint32_t, double> sent_time;  // sequence -> client time
+  std::vector<bridge::WrenchPacket> wrenches;
+  int invalid = 0;
+  uint32_t seq = 0;
+
+  // The device announces 5 N; then it streams poses down onto the block and along it, ~1 kHz.
+  client.send(hello_packet(seq++, 5.0));
+  auto stream = [&](int count, double from) {
+    for (int i = 0; i < count; ++i) {
+      const double t = client_clock();
+      sent_time[seq] = t;
+      client.send(pose_packet(seq++, t, cursor.at(from + 0.001 * i)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      client.drain(wrenches, invalid);
+    }
+  };
+  stream(600, 0.0);
+  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 600; }));
+  ASSERT_TRUE(test::wait_for([&] {
+    client.drain(wrenches, invalid);
+    return !wrenches.empty() && wrenches.back().sequence == seq - 1;
+  }));
+
+  // Wrenches echo sent sequence numbers (and their client times), in order, within the announced
+  // 5 N; the tool pressed on the block.
+  EXPECT_EQ(invalid, 0);
+  uint32_t previous = 0;
+  int pressing = 0, acknowledged = 0;
+  for (const bridge::WrenchPacket& w : wrenches) {
+    ASSERT_TRUE(sent_time.count(w.sequence)) << w.sequence;
+    EXPECT_DOUBLE_EQ(w.client_time, sent_time[w.sequence]);
+    EXPECT_GE(w.sequence, previous);
+    previous = w.sequence;
+    EXPECT_LE(w.force.norm(), 5.0 + 1e-9);
+    pressing += w.state == static_cast<uint8_t>(InteractionState::Sliding) && w.force.norm() > 0.1;
+    acknowledged += (w.flags & bridge::kWrenchLimitsAcknowledged) != 0;
+  }
+  EXPECT_GT(pressing, 0);
+  EXPECT_EQ(acknowledged, static_cast<int>(wrenches.size()));
+  EXPECT_NE(bridge.device.info().description.find("loopback test"), std::string::npos);
+  EXPECT_DOUBLE_EQ(bridge.device.info().limits.max_force, 5.0);
+
+  // Bad packets, while the loop runs.
+  const uint64_t cycles_before = bridge.loop.timing().cycles;
+  const Pose here = cursor.at(0.6);
+  const Bytes good = pose_packet(seq, client_clock(), here);
+  Bytes longer = good;
+  longer.push_back(0);
+  Bytes unknown_type = good;
+  unknown_type[5] = 7;
+  Bytes magic = good;
+  magic[0] = 'X';
+  Bytes version = good;
+  version[4] = 3;
+  Pose nan_pose = here;
+  nan_pose.p.y() = std::nan("");
+  Pose long_quat = here;
+  long_quat.q.coeffs() *= 1.5;
+  client.send(longer);                                           // malformed
+  client.send(unknown_type);                                     // malformed
+  client.send(good.data(), 40);                                  // truncated
+  client.send(good.data(), 8);                                   // truncated
+  client.send(magic);                                            // bad magic
+  client.send(version);                                          // bad version
+  client.send(pose_packet(seq, client_clock(), nan_pose));       // non-finite
+  client.send(pose_packet(seq, client_clock(), long_quat));      // non-unit
+  client.send(pose_packet(seq - 1, client_clock(), here));       // duplicate of the last accepted
+  client.send(pose_packet(seq - 5, client_clock(), here));       // out of order
+  client.send(pose_packet(seq - 300, client_clock(), here));     // out of order
+  client.send(pose_packet(seq, client_clock() - 0.2, here));     // stale: 200 ms in transit
+  {
+    Client intruder(bridge.device.port());
+    intruder.send(pose_packet(seq, client_clock(), here));       // foreign
+  }
+  const uint64_t expected_rejections = 13;
+  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters().rejected() == expected_rejections; }));
+  const BridgeCounters c = bridge.device.bridge_counters();
+  EXPECT_EQ(c[BridgeVerdict::Malformed], 2u);
+  EXPECT_EQ(c[BridgeVerdict::Truncated], 2u);
+  EXPECT_EQ(c[BridgeVerdict::BadMagic], 1u);
+  EXPECT_EQ(c[BridgeVerdict::BadVersion], 1u);
+  EXPECT_EQ(c[BridgeVerdict::NonFinite], 1u);
+  EXPECT_EQ(c[BridgeVerdict::NonUnit], 1u);
+  EXPECT_EQ(c[BridgeVerdict::Duplicate], 1u);
+  EXPECT_EQ(c[BridgeVerdict::OutOfOrder], 2u);
+  EXPECT_EQ(c[BridgeVerdict::Stale], 1u);
+  EXPECT_EQ(c[BridgeVerdict::Foreign], 1u);
+  EXPECT_EQ(c[BridgeVerdict::AcceptedPose], 600u);
+  EXPECT_EQ(c[BridgeVerdict::AcceptedHello], 1u);
+
+  // The loop ran on, and valid poses are still accepted and answered.
+  stream(100, 0.6);
+  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 700; }));
+  ASSERT_TRUE(test::wait_for([&] {
+    client.drain(wrenches, invalid);
+    return wrenches.back().sequence == seq - 1;
+  }));
+  EXPECT_GT(bridge.loop.timing().cycles, cycles_before);
+  EXPECT_TRUE(bridge.loop.running());
+
+  // Silence: the loop keeps answering, with zero force flagged stale.
+  ASSERT_TRUE(test::wait_for([&] {
+    client.drain(wrenches, invalid);
+    return (wrenches.back().flags & kSafetyStale) != 0;
+  }));
+  EXPECT_TRUE(wrenches.back().force.isZero());
+  EXPECT_TRUE(wrenches.back().torque.isZero());
+  bridge.loop.stop();
+
+  // The counters as the viewer's panel sees them.
+  const std::vector<DeviceCounter> named = bridge.device.counters();
+  bool found_stale = false;
+  for (const DeviceCounter& n : named)
+    if (std::string(n.name) == "rejected_stale") found_stale = n.value == 1;
+  EXPECT_TRUE(found_stale);
+  EXPECT_GT(bridge.device.bridge_counters().sent, 0u);
+  EXPECT_EQ(bridge.device.bridge_counters().send_errors, 0u);
+}
+
+TEST(UdpLoopback, StreamingAllocatesNothing) {
+  // With the servo, receiver and sender threads running and a client streaming, the whole process
+  // allocates nothing (the packets are encoded before the window).
+  Model model = test::friction_block();
+  Bridge bridge(model);
+  bridge.loop.start();
+  Client client(bridge.device.port());
+  std::vector<Bytes> packets;
+  const double t0 = client_clock();
+  for (uint32_t i = 0; i < 400; ++i)
+    packets.push_back(pose_packet(i, t0 + 0.001 * i, test::home_at(model, model.tool_home.p + Vec3(0.01 * i, 0, 0))));
+  std::vector<bridge::WrenchPacket> wrenches;
+  wrenches.reserve(100000);
+  int invalid = 0;
+  for (std::size_t i = 0; i < 100; ++i) client.send(packets[i]);
+  ASSERT_TRUE(test::wait_for([&] {
+    client.drain(wrenches, invalid);
+    return !wrenches.empty();
+  }));
+
+  const std::size_t before = test::allocation_count();
+  for (std::size_t i = 100; i < packets.size(); ++i) {
+    client.send(packets[i]);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    client.drain(wrenches, invalid);
+  }
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] < packets.size() &&
+         std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const std::size_t after = test::allocation_count();
+  bridge.loop.stop();
+  EXPECT_EQ(after - before, 0u);
+  EXPECT_EQ(bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose], packets.size());
+  EXPECT_GT(wrenches.size(), 1u);
+  EXPECT_EQ(invalid, 0);
+}
+
+}  // namespace
+}  // namespace cariesim

@@ -1,0 +1,140 @@
+// Issue 5 acceptance: "a device feeding NaN, a 100 mm jump, and then silence gets zero or clamped
+// force, never over the limit". The real ServoLoop runs the real engine on friction-block, driven by
+// a device that presses the tool into the block (the force reaches the limit), then sends NaN, then
+// jumps 100 mm, then falls silent. Every rendered wrench is checked, cycle by cycle.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "cariesim/device/safety.hpp"
+#include "cariesim/servo/servo.hpp"
+#include "servo/servo_support.hpp"
+
+namespace cariesim {
+namespace {
+
+// The phases, also reported as the reading's `buttons` so each sample says where it was.
+enum Phase : uint32_t { kPress = 1, kNaN = 2, kJump = 3, kSilence = 4 };
+
+class GlitchDevice : public Device {
+ public:
+  static constexpr uint64_t kPressEnd = 400, kNaNEnd = 450, kJumpEnd = 600, kEnd = 800;
+
+  explicit GlitchDevice(const Model& m) : home_(m.tool_home) {}
+  [[nodiscard]] DeviceInfo info() const override { return DeviceInfo{"glitch", "test", DeviceLimits{}, true}; }
+  DeviceState read(double now) override {
+    const uint64_t k = reads_.fetch_add(1);
+    if (k >= kJumpEnd) {
+      // Silence: the last reading again, its stamp frozen.
+      last_.buttons = kSilence;
+      return last_;
+    }
+    DeviceState s;
+    s.stamp = now;
+    s.sequence = k + 1;
+    s.valid = true;
+    s.pose.q = home_.q;
+    // Down from the home pose to 3 mm inside the block, then hold.
+    const Vec3 press(home_.p.x(), 0.0, -3.0);
+    const double u = std::min(1.0, static_cast<double>(k) / 200.0);
+    s.pose.p = home_.p + u * (press - home_.p);
+    s.buttons = kPress;
+    if (k >= kPressEnd && k < kNaNEnd) {
+      s.pose.p.x() = std::numeric_limits<double>::quiet_NaN();
+      s.buttons = kNaN;
+    } else if (k >= kNaNEnd) {
+      s.pose.p = press + Vec3(100.0, 0.0, 0.0);
+      s.buttons = kJump;
+      frozen_stamp_.store(now);
+    }
+    last_ = s;
+    return s;
+  }
+  void write(const Vec3& /*force*/, const Vec3& /*torque*/) override {}
+
+  [[nodiscard]] uint64_t reads() const { return reads_.load(); }
+  [[nodiscard]] double frozen_stamp() const { return frozen_stamp_.load(); }
+
+ private:
+  Pose home_;
+  DeviceState last_;
+  std::atomic<uint64_t> reads_{0};
+  std::atomic<double> frozen_stamp_{0.0};
+};
+
+TEST(SafetyAcceptance, NaNJumpAndSilenceGetZeroOrClampedForce) {
+  Model m = test::friction_block();
+  GlitchDevice device(m);
+  SpscQueue<ServoSample> queue(20000);
+  ServoOptions o;
+  o.realtime = false;
+  o.record = &queue;
+  o.safety.max_force = 1.0;  // low, so pressing 3 mm into the block reaches it
+  o.safety.max_torque = 20.0;
+  o.safety.ramp_time = 0.05;
+  ServoLoop loop(m, device, o);
+  loop.start();
+  ASSERT_TRUE(test::wait_for([&] { return device.reads() >= GlitchDevice::kEnd; }));
+  loop.stop();
+  std::vector<ServoSample> samples;
+  ServoSample s;
+  while (queue.pop(s)) samples.push_back(s);
+  ASSERT_EQ(loop.dropped_samples(), 0u);
+  ASSERT_GE(samples.size(), GlitchDevice::kEnd);
+
+  const double silence_from = device.frozen_stamp();
+  int clamped_in_press = 0, nan_cycles = 0, jump_zeroed = 0, stale_cycles = 0, after_jump_force = 0;
+  bool first_jump = true;
+  for (const ServoSample& x : samples) {
+    // Never over the limits, never NaN.
+    ASSERT_TRUE(x.force.allFinite() && x.torque.allFinite()) << "t = " << x.t;
+    EXPECT_LE(x.force.norm(), o.safety.max_force + 1e-9) << "t = " << x.t;
+    EXPECT_LE(x.torque.norm(), o.safety.max_torque + 1e-9) << "t = " << x.t;
+    const bool zero = x.force.isZero() && x.torque.isZero();
+    switch (x.buttons) {
+      case kPress:
+        clamped_in_press += (x.safety_flags & kSafetyClampedForce) != 0;
+        break;
+      case kNaN:
+        // Non-finite input: exactly zero.
+        EXPECT_TRUE(zero) << "t = " << x.t;
+        EXPECT_NE(x.safety_flags & kSafetyNonFinite, 0u);
+        ++nan_cycles;
+        break;
+      case kJump:
+        // The jump itself is a fault (zero); afterwards the force ramps in again, clamped.
+        if (first_jump) {
+          EXPECT_TRUE(zero);
+          EXPECT_NE(x.safety_flags & kSafetyJump, 0u);
+          jump_zeroed += zero;
+          first_jump = false;
+        } else {
+          after_jump_force += x.force.norm() > 0.0;
+        }
+        break;
+      case kSilence:
+        // Silence: once the last reading is older than the stale limit, zero.
+        if (x.t - silence_from > 0.05 + 1e-9) {
+          EXPECT_TRUE(zero) << "t = " << x.t;
+          EXPECT_NE(x.safety_flags & kSafetyStale, 0u);
+          ++stale_cycles;
+        }
+        break;
+      default:
+        ADD_FAILURE() << "sample without a phase";
+    }
+  }
+  // The sequence really exercised each case.
+  EXPECT_GT(clamped_in_press, 0);
+  EXPECT_EQ(nan_cycles, static_cast<int>(GlitchDevice::kNaNEnd - GlitchDevice::kPressEnd));
+  EXPECT_EQ(jump_zeroed, 1);
+  EXPECT_GT(after_jump_force, 0);
+  EXPECT_GT(stale_cycles, 50);
+  EXPECT_GT(loop.timing().cycles, 0u);
+}
+
+}  // namespace
+}  // namespace cariesim

@@ -1,0 +1,266 @@
+// ServoLoop with the real engine on the built-in friction-block scene: cycles happen, snapshots
+// arrive, samples flow (and drops are counted), parameter changes reach the model, start/stop/start
+// works, and the running cycle allocates nothing. No wall-clock timing is asserted.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+#include <vector>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/device/devices.hpp"
+#include "cariesim/servo/servo.hpp"
+#include "servo/servo_support.hpp"
+#include "support/alloc_counter.hpp"
+
+namespace cariesim {
+namespace {
+
+using test::friction_block;
+using test::wait_for;
+
+// Holds a pose; counts starts and stops; remembers what was written (read it after stop()).
+class HoldDevice : public Device {
+ public:
+  explicit HoldDevice(const Pose& pose) : pose_(pose) {}
+  [[nodiscard]] DeviceInfo info() const override { return DeviceInfo{"hold", "test", DeviceLimits{}, true}; }
+  void start() override { starts.fetch_add(1); }
+  void stop() override { stops.fetch_add(1); }
+  DeviceState read(double now) override {
+    reads.fetch_add(1, std::memory_order_relaxed);
+    DeviceState s;
+    s.pose = pose_;
+    s.stamp = now;
+    s.sequence = ++sequence_;
+    s.valid = true;
+    s.buttons = 5;
+    return s;
+  }
+  void write(const Vec3& force, const Vec3& torque) override {
+    last_force = force;
+    last_torque = torque;
+    writes.fetch_add(1, std::memory_order_relaxed);
+  }
+  void set_status(const DeviceStatus& status) override { last_status = status; }
+
+  std::atomic<int> starts{0}, stops{0};
+  std::atomic<uint64_t> reads{0}, writes{0};
+  Vec3 last_force = Vec3::Constant(-1.0), last_torque = Vec3::Zero();
+  DeviceStatus last_status;
+
+ private:
+  Pose pose_;
+  uint64_t sequence_ = 0;
+};
+
+ServoOptions quiet_options() {
+  ServoOptions o;
+  o.realtime = false;
+  return o;
+}
+
+// The home pose lowered so the tip is `depth` mm below the block's top (z = 0).
+Pose pressing(const Model& m, double depth) { return test::home_at(m, Vec3(m.tool_home.p.x(), 0.0, -depth)); }
+
+TEST(ServoLoop, RejectsRatesOutsideTheRange) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  for (double rate : {0.0, -5.0, 10001.0, std::nan("")}) {
+    ServoOptions o = quiet_options();
+    o.rate_hz = rate;
+    EXPECT_THROW(ServoLoop(m, d, o), Error) << rate;
+  }
+  ServoOptions o = quiet_options();
+  o.rate_hz = 10000.0;
+  ServoLoop fast(m, d, o);
+  EXPECT_DOUBLE_EQ(fast.dt(), 1e-4);
+}
+
+TEST(ServoLoop, CyclesPublishSnapshotsAndTiming) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  ServoLoop loop(m, d, quiet_options());
+  EXPECT_FALSE(loop.running());
+  loop.start();
+  EXPECT_TRUE(loop.running());
+  EXPECT_EQ(loop.realtime_status(), "not requested (normal priority)");
+
+  // Snapshots arrive with increasing cycle numbers and servo times one dt apart per cycle or more.
+  ServoSnapshot a, b;
+  ASSERT_TRUE(wait_for([&] { return loop.latest(a) && a.cycle >= 20; }));
+  ASSERT_TRUE(wait_for([&] { return loop.latest(b) && b.cycle > a.cycle; }));
+  EXPECT_GE(b.t - a.t, static_cast<double>(b.cycle - a.cycle) * loop.dt() - 1e-9);
+  EXPECT_EQ(b.device.buttons, 5u);
+  EXPECT_TRUE(b.out.graphic.finite());
+  loop.stop();
+  EXPECT_FALSE(loop.running());
+
+  // Every cycle read and wrote once and was timed once; the last write was a zero wrench.
+  const TimingReport r = loop.timing();
+  EXPECT_GE(r.cycles, b.cycle);
+  EXPECT_EQ(d.reads.load(), r.cycles);
+  EXPECT_EQ(d.writes.load(), r.cycles + 1);  // + the zero wrench at stop
+  EXPECT_TRUE(d.last_force.isZero());
+  EXPECT_TRUE(d.last_torque.isZero());
+  EXPECT_LE(r.overruns, r.cycles);
+  EXPECT_GT(r.rate_hz, 0.0);
+  EXPECT_LE(r.step_p50, r.step_p99);
+  EXPECT_LE(r.step_p99, r.step_p999);
+  EXPECT_LE(r.step_p999, r.step_max);
+  EXPECT_LE(r.jitter_p50, r.jitter_max);
+  EXPECT_GT(r.step_max, 0.0);
+}
+
+TEST(ServoLoop, StartStopStartContinues) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  ServoLoop loop(m, d, quiet_options());
+  ServoSnapshot s;
+  loop.start();
+  loop.start();  // no-op while running
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 10; }));
+  loop.stop();
+  loop.stop();  // safe twice
+  const uint64_t first = loop.timing().cycles;
+  const double last_t = s.t;
+  EXPECT_EQ(d.starts.load(), 1);
+  EXPECT_EQ(d.stops.load(), 1);
+
+  loop.start();
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= first + 10; }));
+  loop.stop();
+  EXPECT_EQ(d.starts.load(), 2);
+  EXPECT_EQ(d.stops.load(), 2);
+  EXPECT_GT(loop.timing().cycles, first);
+  EXPECT_GT(s.t, last_t);  // the servo clock continued
+}
+
+TEST(ServoLoop, SamplesFlowInOrder) {
+  Model m = friction_block();
+  HoldDevice d(pressing(m, 0.5));
+  SpscQueue<ServoSample> queue(100000);
+  ServoOptions o = quiet_options();
+  o.record = &queue;
+  ServoLoop loop(m, d, o);
+  loop.start();
+  std::vector<ServoSample> samples;
+  ServoSample s;
+  ASSERT_TRUE(wait_for([&] {
+    while (queue.pop(s)) samples.push_back(s);
+    return samples.size() >= 400;
+  }));
+  loop.stop();
+  while (queue.pop(s)) samples.push_back(s);
+
+  // One sample per cycle, none dropped, times increasing, the tool reached the block.
+  EXPECT_EQ(loop.dropped_samples(), 0u);
+  EXPECT_EQ(samples.size(), loop.timing().cycles);
+  int sliding = 0;
+  for (std::size_t i = 1; i < samples.size(); ++i) {
+    EXPECT_GT(samples[i].t, samples[i - 1].t);
+    sliding += samples[i].state == InteractionState::Sliding;
+  }
+  EXPECT_GT(sliding, 0);
+  EXPECT_EQ(samples.back().buttons, 5u);
+  EXPECT_TRUE(samples.back().force.allFinite());
+}
+
+TEST(ServoLoop, FullRecordQueueCountsDrops) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  SpscQueue<ServoSample> queue(16);  // never drained while running
+  ServoOptions o = quiet_options();
+  o.record = &queue;
+  ServoLoop loop(m, d, o);
+  loop.start();
+  ASSERT_TRUE(wait_for([&] { return loop.dropped_samples() >= 50; }));
+  loop.stop();
+  std::size_t kept = 0;
+  ServoSample s;
+  double previous = -1.0;
+  while (queue.pop(s)) {
+    EXPECT_GT(s.t, previous);
+    previous = s.t;
+    ++kept;
+  }
+  EXPECT_EQ(kept, 16u);
+  EXPECT_EQ(loop.dropped_samples() + kept, loop.timing().cycles);
+}
+
+TEST(ServoLoop, ParamChangesReachTheModel) {
+  Model m = friction_block();
+  ASSERT_EQ(m.lesions.size(), 1u);
+  HoldDevice d(pressing(m, 1.0));
+  ServoOptions o = quiet_options();
+  o.safety.ramp_time = 0.0;
+  ServoLoop loop(m, d, o);
+  loop.start();
+  ServoSnapshot s;
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 5; }));
+
+  EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::MuS, 0, 0.9}));
+  EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::KE, 0, 0.7}));
+  EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::MuS, 3, 0.2}));  // no lesion 3: refused
+  EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::ForceScale, -1, 0.5}));
+  // The scale shows in the snapshots: the rendered force is half the engine's.
+  ASSERT_TRUE(wait_for([&] {
+    return loop.latest(s) && s.out.force.norm() > 0.05 && (s.force - 0.5 * s.out.force).norm() < 1e-9;
+  }));
+  ASSERT_TRUE(wait_for([&] { return loop.rejected_changes() == 1; }));
+  loop.stop();
+
+  for (const Material& mat : m.materials) {
+    if (mat.lesion != 0) continue;
+    EXPECT_DOUBLE_EQ(mat.mu_s, 0.9);
+    EXPECT_DOUBLE_EQ(mat.k_e, 0.7);
+  }
+  EXPECT_NE(friction_block().materials.back().mu_s, 0.9);  // the shared model was not touched
+}
+
+TEST(ServoLoop, RunningCyclesAllocateNothing) {
+  // The whole process allocates nothing while the loop runs (the test thread only reads snapshots,
+  // posts changes and sleeps), with the engine sliding on the block and the recorder queue filling.
+  Model m = friction_block();
+  const Trajectory tr = test::press_and_slide(m, 0.5, 5.0);
+  ScriptedDevice d(tr, false, "press-and-slide");
+  SpscQueue<ServoSample> queue(20000);
+  ServoOptions o = quiet_options();
+  o.record = &queue;
+  ServoLoop loop(m, d, o);
+  loop.start();
+  ServoSnapshot s;
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 400 && s.out.state == InteractionState::Sliding; }));
+
+  const std::size_t before = test::allocation_count();
+  const uint64_t cycles_before = s.cycle;
+  for (int i = 0; i < 200; ++i) {
+    loop.latest(s);
+    loop.post(ParamChange{ParamChange::Field::MuS, 0, 0.3 + 0.001 * i});
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  while (!loop.latest(s) || s.cycle < cycles_before + 100) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const std::size_t after = test::allocation_count();
+  loop.stop();
+
+  EXPECT_EQ(after - before, 0u);
+  EXPECT_GE(s.cycle, cycles_before + 100);
+  EXPECT_EQ(loop.rejected_changes(), 0u);
+}
+
+TEST(ServoLoop, RealtimeRequestIsAnswered) {
+  // Granted or refused depends on the machine; either way the status says which.
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  ServoOptions o;
+  o.realtime = true;
+  ServoLoop loop(m, d, o);
+  loop.start();
+  const std::string status = loop.realtime_status();
+  ServoSnapshot s;
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 5; }));
+  loop.stop();
+  EXPECT_TRUE(status.rfind("SCHED_FIFO priority ", 0) == 0 || status.rfind("refused: ", 0) == 0) << status;
+}
+
+}  // namespace
+}  // namespace cariesim
