@@ -21,6 +21,7 @@ TEST(UdpExampleClient, StreamsATrajectoryAndGetsWrenches) {
   UdpOptions udp;
   udp.port = 0;
   udp.home = model.tool_home;
+  udp.timeout = 0.5;  // s: no scheduling stall of a loaded test machine makes a pose stale
   UdpDevice device(udp);
   ServoOptions o;
   o.realtime = false;

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cstring>
 #include <map>
@@ -94,6 +95,9 @@ struct Bridge {
     o.port = 0;
     o.home = m.tool_home;
     o.limits = m.limits;
+    // A transit timeout far above any scheduling stall of a loaded test machine, so only the packet
+    // sent as stale on purpose (2 s old) is judged stale.
+    o.timeout = 0.5;
     return o;
   }
   static ServoOptions servo_options() {
@@ -183,7 +187,7 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   client.send(pose_packet(seq - 1, client_clock(), here));       // duplicate of the last accepted
   client.send(pose_packet(seq - 5, client_clock(), here));       // out of order
   client.send(pose_packet(seq - 300, client_clock(), here));     // out of order
-  client.send(pose_packet(seq, client_clock() - 0.2, here));     // stale: 200 ms in transit
+  client.send(pose_packet(seq, client_clock() - 2.0, here));     // stale: 2 s in transit
   {
     Client intruder(bridge.device.port());
     intruder.send(pose_packet(seq, client_clock(), here));       // foreign
@@ -235,38 +239,44 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
 
 TEST(UdpLoopback, StreamingAllocatesNothing) {
   // With the servo, receiver and sender threads running and a client streaming, the whole process
-  // allocates nothing (the packets are encoded before the window).
+  // allocates nothing (each packet is encoded at send time, with its client time, into a buffer on
+  // the stack).
   Model model = test::friction_block();
   Bridge bridge(model);
   bridge.loop.start();
   Client client(bridge.device.port());
-  std::vector<Bytes> packets;
-  const double t0 = client_clock();
-  for (uint32_t i = 0; i < 400; ++i)
-    packets.push_back(pose_packet(i, t0 + 0.001 * i, test::home_at(model, model.tool_home.p + Vec3(0.01 * i, 0, 0))));
+  constexpr uint32_t kPackets = 400;
+  std::array<uint8_t, bridge::kMaxPacketSize> buffer{};
+  auto send_pose = [&](uint32_t i) {
+    bridge::PosePacket p;
+    p.sequence = i;
+    p.client_time = client_clock();
+    p.pose = test::home_at(model, model.tool_home.p + Vec3(0.01 * i, 0, 0));
+    client.send(buffer.data(), bridge::encode_pose(p, buffer.data(), buffer.size()));
+  };
   std::vector<bridge::WrenchPacket> wrenches;
   wrenches.reserve(100000);
   int invalid = 0;
-  for (std::size_t i = 0; i < 100; ++i) client.send(packets[i]);
+  for (uint32_t i = 0; i < 100; ++i) send_pose(i);
   ASSERT_TRUE(test::wait_for([&] {
     client.drain(wrenches, invalid);
     return !wrenches.empty();
   }));
 
   const std::size_t before = test::allocation_count();
-  for (std::size_t i = 100; i < packets.size(); ++i) {
-    client.send(packets[i]);
+  for (uint32_t i = 100; i < kPackets; ++i) {
+    send_pose(i);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     client.drain(wrenches, invalid);
   }
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] < packets.size() &&
+  while (bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] < kPackets &&
          std::chrono::steady_clock::now() < give_up)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   const std::size_t after = test::allocation_count();
   bridge.loop.stop();
   EXPECT_EQ(after - before, 0u);
-  EXPECT_EQ(bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose], packets.size());
+  EXPECT_EQ(bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose], kPackets);
   EXPECT_GT(wrenches.size(), 1u);
   EXPECT_EQ(invalid, 0);
 }
