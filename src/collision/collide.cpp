@@ -37,6 +37,7 @@ struct Query {
   Vec3 origin;                     // tool-frame origin in the world
   Vec3 fallback_normal;            // used when two centres coincide
   uint16_t object;
+  uint32_t skip_flags;             // object leaves with any of these flags are not reported
 };
 
 // True when a tool node (inflated) and an object node overlap, within the pruning slack.
@@ -52,6 +53,7 @@ inline bool overlaps(const Query& q, uint32_t t, uint32_t o) {
 inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
   const SphereNode& tn = q.tool_nodes[t];
   const SphereNode& on = q.object_nodes[o];
+  if (on.flags & q.skip_flags) return;
   const Vec3 co = on.center.cast<double>();
   const Vec3 d = q.tool_centers[t] - co;
   const double dist = d.norm();
@@ -212,6 +214,9 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
     if (((mask >> i) & 1u) == 0 || objects[i].tree.empty()) continue;
     q.object_nodes = objects[i].tree.nodes.data();
     q.object = static_cast<uint16_t>(i);
+    // A tool meets a rigid object only at its surface: the interior fillers under it would add
+    // hundreds of redundant pairs in dense trees (and closest() still sees them).
+    q.skip_flags = objects[i].kind == ObjectKind::Rigid ? kLeafInterior : 0u;
     traverse(q, out);
   }
 }

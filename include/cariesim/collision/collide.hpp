@@ -92,7 +92,8 @@ using ObjectMask = uint64_t;
 inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 
 /// Appends every (tool leaf, object leaf) pair whose gap is below the tool leaf's margin.
-/// `gap` and `normal` are computed with the true (uninflated) radii.
+/// `gap` and `normal` are computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
+/// ObjectKind::Rigid objects are skipped (a tool meets rigid tissue only at its surface leaves).
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
              ContactSet& out);
 

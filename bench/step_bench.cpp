@@ -1,0 +1,215 @@
+// The haptic step on the scenes that matter (issue 3 item 9, issue 4): per-step time along
+// deterministic scripted trajectories in `oral-cavity` — free motion, sliding over the occlusal
+// enamel of 46, the tip in 46's central fossa with the shank resting on a neighbour — and on
+// `insertion-blocks` during insertion with the additional contact of paper Fig. 14.
+// Targets: median <= 50 us, p99 <= 100 us, p99.9 <= 250 us on one core.
+//
+// Run: build/bench/step_bench --benchmark_counters_tabular=true
+// Each benchmark iteration is one servo step at 1 kHz; the trajectory plays forward and backward so
+// the state stays continuous. Counters: p50_us, p99_us, p999_us, max_us from the wall clock around
+// each step; cpu_p50_us, cpu_p99_us, cpu_p999_us from the thread's CPU clock (what the step costs,
+// without the preemptions of a shared machine); the share of steps in contact / in the tunnel.
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <cmath>
+#include <vector>
+
+#include "cariesim/experiment/simulate.hpp"
+#include "cariesim/render/step.hpp"
+#include "cariesim/scene/scene.hpp"
+#include "experiment/oral.hpp"
+
+namespace {
+
+using namespace cariesim;
+
+const Model& oral() {
+  static const Model model = build_model(load_scene("oral-cavity"));
+  return model;
+}
+
+const Model& blocks() {
+  static const Model model = build_model(load_scene("insertion-blocks"));
+  return model;
+}
+
+const LesionModel& lesion_named(const Model& m, const std::string& name) {
+  for (const LesionModel& l : m.lesions)
+    if (l.name == name) return l;
+  return m.lesions.front();
+}
+
+int object_named(const Model& m, const std::string& name) {
+  for (std::size_t i = 0; i < m.objects.size(); ++i)
+    if (m.objects[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+// Haptic poses at 1 kHz along a trajectory.
+std::vector<Pose> sample(const Trajectory& t) {
+  std::vector<Pose> out;
+  TrajectoryCursor cursor(t);
+  for (double time = t.start(); time <= t.end(); time += 0.001) out.push_back(cursor.at(time));
+  return out;
+}
+
+// Free motion: a loop 4 mm above 46 and its neighbours, turning the tool as it goes.
+std::vector<Pose> free_motion() {
+  const Model& m = oral();
+  const LesionModel& l = lesion_named(m, "lesion1");
+  const Quat q = experiment::best_posture(m, l).q;
+  Trajectory t;
+  for (int k = 0; k <= 40; ++k) {
+    const double a = k * 0.157;  // rad
+    const Vec3 p = l.shape.center + Vec3(6.0 * std::cos(a), 6.0 * std::sin(a), 4.0 + std::sin(2.0 * a));
+    t.add(0.1 * k, Pose{p, (Quat(Eigen::AngleAxisd(0.2 * std::sin(a), Vec3::UnitX())) * q).normalized()});
+  }
+  return sample(t);
+}
+
+// Sliding over the occlusal enamel of 46 next to lesion #1, pressed 0.3 mm, back and forth.
+std::vector<Pose> sliding() {
+  const Model& m = oral();
+  const LesionModel& l = lesion_named(m, "lesion1");
+  const Quat q = experiment::best_posture(m, l).q;
+  const Vec3 n = l.shape.normal.normalized(), s = l.shape.center;
+  const Vec3 side = n.unitOrthogonal();
+  const auto at = [&](double u, double depth) { return Pose{s + side * u - n * (depth - m.tool.tip_radius), q}; };
+  Trajectory t;
+  t.add(0.0, at(2.0, -1.0));
+  t.add(0.5, at(2.0, 0.3));
+  t.add(1.5, at(3.5, 0.3));
+  t.add(3.0, at(1.8, 0.3));
+  t.add(4.5, at(3.5, 0.3));
+  return sample(t);
+}
+
+// The tip in 46's central fossa, the tool leaning onto a neighbouring tooth: the most tilted
+// candidate posture whose nearest object is another tooth and that touches it.
+std::vector<Pose> fissure_with_shank_on_neighbour() {
+  const Model& m = oral();
+  const LesionModel& l = lesion_named(m, "lesion1");
+  const int t46 = object_named(m, "tooth46/healthy");
+  const experiment::Posture* pick = nullptr;
+  const std::vector<experiment::Posture> all = experiment::posture_candidates(m, l);
+  for (const experiment::Posture& p : all) {
+    const bool neighbour = p.nearest_object >= 0 && p.nearest_object != t46 &&
+                           m.objects[p.nearest_object].name.rfind("tooth", 0) == 0;
+    if (neighbour && p.clearance < 0.2 && (pick == nullptr || p.clearance > pick->clearance)) pick = &p;
+  }
+  const Quat q = pick != nullptr ? pick->q : experiment::best_posture(m, l).q;
+  const Vec3 axis = q * Vec3::UnitZ(), s = l.shape.center;
+  const Vec3 side = axis.unitOrthogonal();
+  // Pressed into the fossa (the lesion is hidden enamel-coloured caries here: the surface), swaying
+  // sideways so the shank keeps rubbing the neighbour.
+  const auto at = [&](double u, double depth) {
+    return Pose{s + side * u - axis * (depth - m.tool.tip_radius), q};
+  };
+  Trajectory t;
+  t.add(0.0, at(0.0, -1.5));
+  t.add(0.5, at(0.0, 0.4));
+  t.add(1.5, at(0.6, 0.4));
+  t.add(2.5, at(-0.6, 0.4));
+  t.add(3.5, at(0.6, 0.4));
+  return sample(t);
+}
+
+// Insertion-blocks, paper Fig. 14: pressed in until the shank comes down onto the healthy block.
+std::vector<Pose> insertion_with_contact() {
+  const Model& m = blocks();
+  const double top = m.lesions.front().shape.center.z() + m.tool.tip_radius;
+  const auto at = [&](double depth) { return Pose{Vec3(-2.0, 0.0, top - depth), Quat::Identity()}; };
+  Trajectory t;
+  t.add(0.0, at(-2.0));
+  t.add(1.0, at(2.0));
+  t.add(5.0, at(9.0));
+  t.add(6.0, at(9.0));
+  return sample(t);
+}
+
+// Runs the step along `poses` (forward, then backward, ...) and reports per-step percentiles over
+// the steps `counted` selects (all when null).
+void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses,
+         bool (*counted)(const StepOutput&)) {
+  State s(m, poses.front());
+  std::vector<double> us, cpu;
+  us.reserve(1 << 20);
+  cpu.reserve(1 << 20);
+  const auto thread_us = [] {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
+  };
+  std::size_t i = 0;
+  int dir = 1;
+  double contact = 0.0, tunnel = 0.0, steps = 0.0;
+  for (auto _ : state) {
+    const double c0 = thread_us();
+    const auto t0 = std::chrono::steady_clock::now();
+    const StepOutput out = step(m, s, HapticInput{poses[i], 0.001});
+    const auto t1 = std::chrono::steady_clock::now();
+    const double c1 = thread_us();
+    benchmark::DoNotOptimize(out.force);
+    if (counted == nullptr || counted(out)) {
+      us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+      cpu.push_back(c1 - c0);
+    }
+    contact += out.contacts > 0;
+    tunnel += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
+    ++steps;
+    if ((dir > 0 && i + 1 == poses.size()) || (dir < 0 && i == 0)) dir = -dir;
+    i = static_cast<std::size_t>(static_cast<long>(i) + dir);
+  }
+  if (us.empty()) {
+    state.SkipWithError("no step matched");
+    return;
+  }
+  std::sort(us.begin(), us.end());
+  std::sort(cpu.begin(), cpu.end());
+  const auto pct = [](const std::vector<double>& v, double p) {
+    return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+  };
+  state.counters["p50_us"] = pct(us, 0.5);
+  state.counters["p99_us"] = pct(us, 0.99);
+  state.counters["p999_us"] = pct(us, 0.999);
+  state.counters["max_us"] = us.back();
+  state.counters["cpu_p50_us"] = pct(cpu, 0.5);
+  state.counters["cpu_p99_us"] = pct(cpu, 0.99);
+  state.counters["cpu_p999_us"] = pct(cpu, 0.999);
+  state.counters["in_contact"] = contact / steps;
+  state.counters["in_tunnel"] = tunnel / steps;
+  state.counters["counted"] = static_cast<double>(us.size());
+}
+
+void BM_StepOralFree(benchmark::State& state) {
+  static const std::vector<Pose> poses = free_motion();
+  run(state, oral(), poses, nullptr);
+}
+void BM_StepOralSlidingOcclusal(benchmark::State& state) {
+  static const std::vector<Pose> poses = sliding();
+  run(state, oral(), poses, nullptr);
+}
+void BM_StepOralFissureShankOnNeighbour(benchmark::State& state) {
+  static const std::vector<Pose> poses = fissure_with_shank_on_neighbour();
+  run(state, oral(), poses, nullptr);
+}
+void BM_StepInsertionWithContact(benchmark::State& state) {
+  static const std::vector<Pose> poses = insertion_with_contact();
+  // Only the steps inside the tunnel with an additional contact row.
+  run(state, blocks(), poses, [](const StepOutput& o) {
+    return (o.state == InteractionState::Inserting || o.state == InteractionState::Extracting) && o.contacts > 0;
+  });
+}
+
+BENCHMARK(BM_StepOralFree)->Iterations(20000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepOralSlidingOcclusal)->Iterations(20000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepOralFissureShankOnNeighbour)->Iterations(20000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepInsertionWithContact)->Iterations(40000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
