@@ -214,9 +214,7 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
     if (((mask >> i) & 1u) == 0 || objects[i].tree.empty()) continue;
     q.object_nodes = objects[i].tree.nodes.data();
     q.object = static_cast<uint16_t>(i);
-    // A tool meets a rigid object only at its surface: the interior fillers under it would add
-    // hundreds of redundant pairs in dense trees (and closest() still sees them).
-    q.skip_flags = objects[i].kind == ObjectKind::Rigid ? kLeafInterior : 0u;
+    q.skip_flags = objects[i].surface_only ? kLeafInterior : 0u;
     traverse(q, out);
   }
 }

@@ -426,6 +426,11 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       part_report.levels = tree.levels;
       part_report.nodes_per_level = tree.nodes_per_level();
       object.tree = std::move(tree);
+      object.surface_only = std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(),
+                                        [&](uint32_t node) {
+                                          const uint16_t mat = object.tree.nodes[node].material;
+                                          return mat < model.materials.size() && model.materials[mat].rigid();
+                                        });
       model.objects.push_back(std::move(object));
       model.display.push_back(std::move(display));
       out.parts.push_back(std::move(part_report));

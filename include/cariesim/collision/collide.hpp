@@ -26,6 +26,9 @@ struct CollisionObject {
   int16_t lesion = -1;        ///< lesion index when this is a caries tree, else -1
   int16_t host = -1;          ///< for a caries tree: index of the healthy object of the same tooth
   int16_t scene_object = -1;  ///< index of the scene object this tree came from
+  /// Every leaf is rigid tissue: a tool meets it only at its surface, so collide() skips its
+  /// kLeafInterior fillers (hundreds of redundant pairs in dense trees; closest() still sees them).
+  bool surface_only = false;
 };
 
 /// One sphere pair closer than the query margin.
@@ -93,7 +96,7 @@ inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 
 /// Appends every (tool leaf, object leaf) pair whose gap is below the tool leaf's margin.
 /// `gap` and `normal` are computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
-/// ObjectKind::Rigid objects are skipped (a tool meets rigid tissue only at its surface leaves).
+/// `surface_only` objects are skipped.
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
              ContactSet& out);
 
