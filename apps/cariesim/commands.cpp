@@ -4,11 +4,12 @@
 
 namespace cariesim::cli {
 
-// Defined in the command files (tree_command.cpp, scene_command.cpp, export_command.cpp).
+// Defined in the command files (run_command.cpp, tree_command.cpp, scene_command.cpp,
+// export_command.cpp).
+void register_run(CLI::App& app, Registry& registry);
 void register_tree(CLI::App& app, Registry& registry);
 void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
-int default_tree_report();
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -17,13 +18,13 @@ void register_all(CLI::App& app, Registry& registry) {
     std::printf("cariesim %s\n", CARIESIM_VERSION);
     return 0;
   });
+  // `run` is also the default without a subcommand: the simulator window on oral-cavity.
+  register_run(app, registry);
   register_sim(app, registry);
   register_experiment(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
   register_export(app, registry);
-  // No subcommand: until the viewer exists, build the default scene and print its tree report.
-  registry.set_default(default_tree_report);
 }
 
 }  // namespace cariesim::cli

@@ -190,11 +190,4 @@ void register_tree(CLI::App& app, Registry& registry) {
   registry.add(tree, [args] { return run_tree(*args); });
 }
 
-int default_tree_report() {
-  // Until the viewer exists: build the default scene and print its tree report.
-  TreeArgs args;
-  args.target = builtin_scene_names().front();
-  return run_tree(args);
-}
-
 }  // namespace cariesim::cli

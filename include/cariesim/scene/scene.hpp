@@ -67,4 +67,25 @@ struct BuildReport {
 /// lesion misses its tooth, or the tool's home pose collides. `report`, when given, is filled.
 Model build_model(const SceneDesc& scene, const BuildOptions& options = {}, BuildReport* report = nullptr);
 
+/// A lesion's caries material to write back into its scene (the viewer's "save to scene file").
+struct LesionMaterialEdit {
+  std::string lesion;  ///< the lesion's name in the scene
+  Material material;   ///< k_e, stiffness, mu_s, mu_d, k_c, f_p_star, f_e_star, k_theta are written
+};
+
+/// The scene text `yaml` with the `material` mapping of each edited lesion set: k_e, stiffness,
+/// mu_s, mu_d, k_c (its profile), f_p_star, f_e_star, k_theta; an `anisotropic` entry is kept as
+/// written unless the material became isotropic (aniso_dir zero), which removes it. Comments and
+/// layout are not kept (yaml-cpp re-emits the document). The result is parsed again before it is
+/// returned. Throws cariesim::Error naming `origin` when the text is not valid YAML, a lesion is
+/// missing, or the result is not a valid scene.
+std::string set_lesion_materials(std::string_view yaml, const std::filesystem::path& origin,
+                                 const std::vector<LesionMaterialEdit>& edits);
+
+/// Writes the scene `source` (a built-in scene name or a YAML file) with the edits to `target`.
+/// When `target` already exists it is first copied to `target` + ".bak", which is returned (else an
+/// empty path). Throws cariesim::Error naming the file on any problem (then `target` is unchanged).
+std::filesystem::path save_lesion_materials(const std::string& source, const std::filesystem::path& target,
+                                            const std::vector<LesionMaterialEdit>& edits);
+
 }  // namespace cariesim

@@ -1,0 +1,77 @@
+// `cariesim run` (and `cariesim` with no subcommand), DESIGN.md §5-6: the simulator window on a
+// scene with a device, the servo loop on its own thread, optionally a session record; for automation
+// a screenshot after some seconds of servo time. docs/viewer.md describes the window.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#ifdef CARIESIM_HAS_VIEWER
+#include "viewer/viewer.hpp"
+#endif
+
+namespace cariesim::cli {
+
+namespace {
+
+// Exit status when there is no display to open the window on.
+constexpr int kNoDisplay = 4;
+
+struct RunArgs {
+  std::string scene = "oral-cavity";
+  std::string device = "mouse";
+  double rate = 0.0;  // Hz; 0 = the scene's servo rate
+  std::string record;
+  std::string screenshot;
+  double exit_after = 0.0;  // s of servo time
+  bool show_lesions = false;
+  bool no_realtime = false;
+};
+
+int run_simulator(const RunArgs& args) {
+#ifdef CARIESIM_HAS_VIEWER
+  // Without a display say so, and how to use Xvfb instead.
+  if (!viewer::display_available()) {
+    std::fputs(("error: " + viewer::headless_message()).c_str(), stderr);
+    return kNoDisplay;
+  }
+  viewer::ViewerOptions options;
+  options.scene = args.scene;
+  options.device = args.device;
+  options.rate_hz = args.rate;
+  options.record = args.record;
+  options.screenshot = args.screenshot;
+  options.exit_after = args.exit_after;
+  options.show_lesions = args.show_lesions;
+  options.realtime = !args.no_realtime;
+  return viewer::run_viewer(options);
+#else
+  (void)args;
+  std::fputs("error: this cariesim was built without the viewer (CARIESIM_BUILD_VIEWER=OFF)\n", stderr);
+  return 3;
+#endif
+}
+
+}  // namespace
+
+void register_run(CLI::App& app, Registry& registry) {
+  auto args = std::make_shared<RunArgs>();
+  CLI::App* sub = app.add_subcommand("run", "Open the simulator window (the default without a subcommand)");
+  sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
+  sub->add_option("--device", args->device, "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
+      ->capture_default_str();
+  sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")->check(CLI::Range(1.0, 10000.0));
+  sub->add_option("--record", args->record, "Record the session into this SQLite file");
+  auto* exit_after = sub->add_option("--exit-after", args->exit_after,
+                                     "Exit after this many seconds of servo time (automation)")
+                         ->check(CLI::PositiveNumber);
+  sub->add_option("--screenshot", args->screenshot,
+                  "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
+      ->needs(exit_after);
+  sub->add_flag("--show-lesions", args->show_lesions, "Start with the lesions revealed (hidden by default)");
+  sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
+  registry.add(sub, [args] { return run_simulator(*args); });
+  registry.set_default([args] { return run_simulator(*args); });
+}
+
+}  // namespace cariesim::cli

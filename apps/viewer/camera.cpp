@@ -1,0 +1,84 @@
+#include "camera.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cariesim::viewer {
+
+void OrbitCamera::frame(const Eigen::AlignedBox3d& box) {
+  if (box.isEmpty()) return;
+  // Centre on the box; back off until its bounding sphere fits the vertical field of view.
+  target = box.center();
+  const double radius = std::max(0.5 * box.diagonal().norm(), 1.0);
+  distance = std::clamp(radius / std::sin(0.5 * fov_y), 1.0, 2000.0);
+}
+
+Vec3 OrbitCamera::forward() const {
+  return Vec3(std::sin(yaw) * std::cos(pitch), std::cos(yaw) * std::cos(pitch), -std::sin(pitch));
+}
+
+Vec3 OrbitCamera::right() const { return Vec3(std::cos(yaw), -std::sin(yaw), 0.0); }
+
+Vec3 OrbitCamera::up() const { return right().cross(forward()); }
+
+Vec3 OrbitCamera::eye() const { return target - distance * forward(); }
+
+Mat4f OrbitCamera::view() const {
+  // Rows: the screen axes in the world (right, up, backward), then the eye moved to the origin.
+  const Vec3 r = right(), u = up(), b = -forward(), e = eye();
+  Mat4f m = Mat4f::Identity();
+  m.block<1, 3>(0, 0) = r.cast<float>().transpose();
+  m.block<1, 3>(1, 0) = u.cast<float>().transpose();
+  m.block<1, 3>(2, 0) = b.cast<float>().transpose();
+  m(0, 3) = static_cast<float>(-r.dot(e));
+  m(1, 3) = static_cast<float>(-u.dot(e));
+  m(2, 3) = static_cast<float>(-b.dot(e));
+  return m;
+}
+
+double OrbitCamera::near_plane() const { return std::max(0.5, 0.02 * distance); }
+
+double OrbitCamera::far_plane() const { return distance + 600.0; }
+
+Mat4f OrbitCamera::projection(double aspect) const {
+  // The usual OpenGL perspective (clip z in [-w, w]).
+  const double f = 1.0 / std::tan(0.5 * fov_y);
+  const double n = near_plane(), fa = far_plane();
+  Mat4f m = Mat4f::Zero();
+  m(0, 0) = static_cast<float>(f / std::max(aspect, 1e-6));
+  m(1, 1) = static_cast<float>(f);
+  m(2, 2) = static_cast<float>((fa + n) / (n - fa));
+  m(2, 3) = static_cast<float>(2.0 * fa * n / (n - fa));
+  m(3, 2) = -1.0f;
+  return m;
+}
+
+void OrbitCamera::orbit(double d_yaw, double d_pitch) {
+  constexpr double kMaxPitch = 89.0 * M_PI / 180.0;
+  yaw = std::remainder(yaw + d_yaw, 2.0 * M_PI);
+  pitch = std::clamp(pitch + d_pitch, -kMaxPitch, kMaxPitch);
+}
+
+void OrbitCamera::zoom(double factor) {
+  if (!(factor > 0.0) || !std::isfinite(factor)) return;
+  distance = std::clamp(distance * factor, 1.0, 2000.0);
+}
+
+double OrbitCamera::mm_per_pixel(double depth, double height_px) const {
+  return 2.0 * std::max(depth, near_plane()) * std::tan(0.5 * fov_y) / std::max(height_px, 1.0);
+}
+
+bool OrbitCamera::project(const Vec3& world, double width, double height, Eigen::Vector2d& pixel) const {
+  // Eye coordinates, then the perspective divide and the viewport (y down).
+  const Vec3 d = world - eye();
+  const double depth = d.dot(forward());
+  if (!(depth > 1e-9)) return false;
+  const double f = 1.0 / std::tan(0.5 * fov_y);
+  const double aspect = width / std::max(height, 1.0);
+  const double ndc_x = f / aspect * d.dot(right()) / depth;
+  const double ndc_y = f * d.dot(up()) / depth;
+  pixel = Eigen::Vector2d(0.5 * (ndc_x + 1.0) * width, 0.5 * (1.0 - ndc_y) * height);
+  return true;
+}
+
+}  // namespace cariesim::viewer

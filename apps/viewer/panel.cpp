@@ -1,0 +1,396 @@
+// The viewer's ImGui panel (docs/viewer.md): scene picker, device and loop readouts, the force and
+// torque plots, view toggles, the lesion sliders with presets and saving; and the status file of a
+// screenshot.
+#include <fmt/format.h>
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/device/safety.hpp"
+#include "cariesim/experiment/json.hpp"
+#include "viewer_app.hpp"
+
+namespace cariesim::viewer {
+
+namespace {
+
+// The state's colour in the readout.
+ImVec4 state_color(InteractionState state) {
+  switch (state) {
+    case InteractionState::Free: return {0.70f, 0.70f, 0.70f, 1.0f};
+    case InteractionState::Sliding: return {0.40f, 0.90f, 0.40f, 1.0f};
+    case InteractionState::Inserting: return {1.00f, 0.60f, 0.20f, 1.0f};
+    case InteractionState::Extracting: return {1.00f, 0.90f, 0.30f, 1.0f};
+  }
+  return {1, 1, 1, 1};
+}
+
+// Names of the set bits of a flag word.
+std::string flag_names(uint32_t flags, std::initializer_list<std::pair<uint32_t, const char*>> names) {
+  std::string out;
+  for (const auto& [bit, name] : names)
+    if ((flags & bit) != 0) out += (out.empty() ? "" : ", ") + std::string(name);
+  return out.empty() ? "-" : out;
+}
+
+// A double slider (logarithmic when asked); true when the user changed it.
+bool slider(const char* label, double& value, double lo, double hi, const char* format, bool log = false) {
+  return ImGui::SliderScalar(label, ImGuiDataType_Double, &value, &lo, &hi, format,
+                             log ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None);
+}
+
+// 0-255 integer channels of a colour.
+void json_rgb(JsonWriter& json, const Rgba& c) {
+  json.begin_array();
+  for (int k = 0; k < 3; ++k) json.value(static_cast<int>(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f)));
+  json.end_array();
+}
+
+}  // namespace
+
+void ViewerApp::draw_panel() {
+  // The panel docks at the right edge, full height.
+  const ImGuiIO& io = ImGui::GetIO();
+  ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - kPanelWidth, 0.0f), ImGuiCond_Always);
+  ImGui::SetNextWindowSize(ImVec2(kPanelWidth, io.DisplaySize.y), ImGuiCond_Always);
+  ImGui::Begin("cariesim", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  panel_.x = pos.x;
+  panel_.y = pos.y;
+  panel_.w = size.x;
+  panel_.h = size.y;
+  ImGui::PushItemWidth(-150.0f);
+  panel_scene();
+  if (session_) {
+    panel_status();
+    panel_plots();
+    panel_view();
+    panel_lesion();
+  }
+  ImGui::PopItemWidth();
+  if (!panel_.message.empty()) {
+    ImGui::Separator();
+    if (panel_.message_is_error) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.4f, 0.4f, 1.0f));
+    ImGui::TextWrapped("%s", panel_.message.c_str());
+    if (panel_.message_is_error) ImGui::PopStyleColor();
+  }
+  ImGui::End();
+}
+
+void ViewerApp::draw_build_progress() {
+  if (!build_) return;
+  // A small centred window with the build's stage and progress.
+  const ImGuiIO& io = ImGui::GetIO();
+  ImGui::SetNextWindowPos(ImVec2(0.5f * (io.DisplaySize.x - kPanelWidth), 0.5f * io.DisplaySize.y), ImGuiCond_Always,
+                          ImVec2(0.5f, 0.5f));
+  ImGui::SetNextWindowSize(ImVec2(420.0f, 0.0f), ImGuiCond_Always);
+  ImGui::Begin("Building", nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
+                   ImGuiWindowFlags_NoSavedSettings);
+  std::string stage;
+  {
+    const std::lock_guard lock(build_->mutex);
+    stage = build_->stage;
+  }
+  ImGui::Text("Building %s", build_->source.c_str());
+  ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f), stage.c_str());
+  if (session_) ImGui::TextDisabled("The current scene keeps running until the new one is ready.");
+  ImGui::End();
+}
+
+void ViewerApp::panel_scene() {
+  if (!ImGui::CollapsingHeader("Scene", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Text("%s", session_ ? session_->source.c_str() : "(building)");
+  // Built-in scenes, and scene files by path; both rebuild the model on a worker thread.
+  const std::vector<std::string> names = builtin_scene_names();
+  panel_.builtin = std::clamp(panel_.builtin, 0, static_cast<int>(names.size()) - 1);
+  if (ImGui::BeginCombo("built-in", names[panel_.builtin].c_str())) {
+    for (int i = 0; i < static_cast<int>(names.size()); ++i)
+      if (ImGui::Selectable(names[i].c_str(), i == panel_.builtin)) panel_.builtin = i;
+    ImGui::EndCombo();
+  }
+  ImGui::SameLine();
+  ImGui::BeginDisabled(build_ != nullptr);
+  if (ImGui::Button("Load##builtin")) request_build(names[panel_.builtin]);
+  ImGui::EndDisabled();
+  ImGui::InputTextWithHint("file", "path/to/scene.yaml", &panel_.scene_path);
+  ImGui::SameLine();
+  ImGui::BeginDisabled(build_ != nullptr || panel_.scene_path.empty());
+  if (ImGui::Button("Load##file")) request_build(panel_.scene_path);
+  ImGui::EndDisabled();
+  if (!build_error_.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.4f, 0.4f, 1.0f));
+    ImGui::TextWrapped("%s", build_error_.c_str());
+    ImGui::PopStyleColor();
+  }
+}
+
+void ViewerApp::panel_status() {
+  if (!ImGui::CollapsingHeader("Status", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  const StepOutput& out = snapshot_.out;
+  const Session& s = *session_;
+  // Device.
+  ImGui::Text("device: %s", s.device_info.name.c_str());
+  if (!s.device_info.description.empty()) ImGui::TextWrapped("  %s", s.device_info.description.c_str());
+  // The interaction and the wrench.
+  ImGui::Text("state:");
+  ImGui::SameLine();
+  ImGui::TextColored(state_color(out.state), "%s", have_snapshot_ ? state_name(out.state) : "(starting)");
+  ImGui::Text("force %.3f N   torque %.2f N*mm", out.force.norm(), out.torque.norm());
+  if (s.device_info.renders_force)
+    ImGui::Text("rendered %.3f N (after force safety)", snapshot_.force.norm());
+  else
+    ImGui::TextDisabled("this device renders no force: see the arrow and the plot");
+  ImGui::Text("insertion depth %.3f mm   contacts %d", out.depth, out.contacts);
+  ImGui::Text("soft tissue %.3f N", out.soft_tissue_force);
+  if (settings_.show_lesions && out.lesion >= 0 && static_cast<std::size_t>(out.lesion) < s.shadow.lesions.size())
+    ImGui::Text("lesion: %s", s.shadow.lesions[out.lesion].name.c_str());
+  ImGui::Text("step flags: %s", flag_names(out.flags, {{kFlagNonFiniteInput, "non-finite input"},
+                                                       {kFlagJumpLimited, "jump"},
+                                                       {kFlagInfeasible, "infeasible"},
+                                                       {kFlagContactOverflow, "contact overflow"},
+                                                       {kFlagForceClamped, "force clamped"},
+                                                       {kFlagLagging, "lagging"},
+                                                       {kFlagBacktracked, "backtracked"}})
+                                    .c_str());
+  ImGui::Text("safety: %s", flag_names(snapshot_.safety_flags, {{kSafetyClampedForce, "force clamped"},
+                                                                {kSafetyClampedTorque, "torque clamped"},
+                                                                {kSafetyRamping, "ramping in"},
+                                                                {kSafetyStale, "stale input"},
+                                                                {kSafetyNonFinite, "non-finite"},
+                                                                {kSafetyInvalidInput, "no input"}})
+                                 .c_str());
+  // The servo loop.
+  ImGui::Separator();
+  ImGui::Text("servo %.0f Hz (set %.0f)   t %.1f s", snapshot_.rate_hz, s.rate_hz, snapshot_.t);
+  ImGui::Text("cycles %llu   overruns %llu", static_cast<unsigned long long>(snapshot_.cycle),
+              static_cast<unsigned long long>(snapshot_.overruns));
+  ImGui::Text("step  p50 %.1f  p99 %.1f  max %.1f us", timing_.step_p50, timing_.step_p99, timing_.step_max);
+  ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99, timing_.jitter_max);
+  if (s.servo) ImGui::TextWrapped("priority: %s", s.servo->realtime_status().c_str());
+  if (s.recorder)
+    ImGui::Text("recording %s (%llu samples)", options_.record.c_str(),
+                static_cast<unsigned long long>(s.recorder->written()));
+  // Device counters (the UDP bridge's packets).
+  for (const DeviceCounter& c : counters_) ImGui::Text("  %s: %llu", c.name, static_cast<unsigned long long>(c.value));
+  // Tool reset and the global force scale.
+  ImGui::BeginDisabled(s.recorder != nullptr);
+  if (ImGui::Button("Reset tool (R)")) restart_servo();
+  ImGui::EndDisabled();
+  ImGui::SameLine();
+  if (ImGui::SliderFloat("force scale", &panel_.force_scale, 0.0f, 1.0f, "%.2f"))
+    post(ParamChange{ParamChange::Field::ForceScale, -1, static_cast<double>(panel_.force_scale)});
+}
+
+void ViewerApp::panel_plots() {
+  if (!ImGui::CollapsingHeader("Force and torque", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  // The last seconds of snapshots on a uniform grid.
+  constexpr int kPoints = 240;
+  const auto plot = [&](ForceHistory::Series series, const char* label, const char* unit, bool symmetric, float height) {
+    history_.resample(series, kPoints, plot_scratch_);
+    const float peak = std::max(history_.max_in_window(series), 0.0f);
+    float range = 1.0f;
+    for (const float v : plot_scratch_) range = std::max(range, std::abs(v) * 1.1f);
+    if (!symmetric) range = std::max(range, peak * 1.1f);
+    const std::string overlay = fmt::format("{} {:.3f} {}", label, plot_scratch_.empty() ? 0.0f : plot_scratch_.back(), unit);
+    ImGui::PlotLines(fmt::format("##{}", label).c_str(), plot_scratch_.data(), static_cast<int>(plot_scratch_.size()), 0,
+                     overlay.c_str(), symmetric ? -range : 0.0f, range, ImVec2(-1.0f, height));
+  };
+  ImGui::Text("last %.0f s", history_.window());
+  plot(ForceHistory::Series::ForceNorm, "|F|", "N", false, 70.0f);
+  plot(ForceHistory::Series::Fx, "Fx", "N", true, 36.0f);
+  plot(ForceHistory::Series::Fy, "Fy", "N", true, 36.0f);
+  plot(ForceHistory::Series::Fz, "Fz", "N", true, 36.0f);
+  plot(ForceHistory::Series::TorqueNorm, "|T|", "N*mm", false, 50.0f);
+}
+
+void ViewerApp::panel_view() {
+  if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Checkbox("reveal lesions (L)", &settings_.show_lesions);
+  ImGui::SameLine();
+  ImGui::Checkbox("haptic ghost", &settings_.haptic_ghost);
+  ImGui::Checkbox("contacts", &settings_.contacts);
+  ImGui::SameLine();
+  ImGui::Checkbox("tunnel", &settings_.tunnel);
+  ImGui::SameLine();
+  ImGui::Checkbox("force arrow", &settings_.force_arrow);
+  ImGui::Checkbox("soft tissue dents", &settings_.dents);
+  if (session_->replay != nullptr) {
+    ImGui::SameLine();
+    ImGui::Checkbox("recorded tool", &settings_.recorded_ghost);
+  }
+  // Sphere trees: a level and which object.
+  ImGui::Checkbox("sphere trees", &settings_.trees);
+  if (settings_.trees) {
+    ImGui::SliderInt("level", &settings_.tree_level, 0, std::max(session_->view->max_tree_level(), 0));
+    const auto& objects = session_->model->objects;
+    const auto name_of = [&](int i) -> std::string {
+      if (i == -1) return "every object and the tool";
+      if (i == -2) return "the tool";
+      return objects[i].name;
+    };
+    if (ImGui::BeginCombo("tree of", name_of(settings_.tree_object).c_str())) {
+      for (int i = -2; i < static_cast<int>(objects.size()); ++i)
+        if (ImGui::Selectable(name_of(i).c_str(), i == settings_.tree_object)) settings_.tree_object = i;
+      ImGui::EndCombo();
+    }
+  }
+  if (ImGui::Button("Frame scene (F)")) camera_.frame(session_->view->bounds());
+  ImGui::TextDisabled("left-drag move, wheel depth (shift: fine), right-drag turn;");
+  ImGui::TextDisabled("middle- or alt-drag orbit, ctrl+wheel zoom");
+}
+
+void ViewerApp::panel_lesion() {
+  if (!ImGui::CollapsingHeader("Lesion parameters", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  Session& s = *session_;
+  if (s.shadow.lesions.empty()) {
+    ImGui::TextDisabled("this scene has no lesions");
+    return;
+  }
+  panel_.lesion = std::clamp(panel_.lesion, 0, static_cast<int>(s.shadow.lesions.size()) - 1);
+  if (ImGui::BeginCombo("lesion", s.shadow.lesions[panel_.lesion].name.c_str())) {
+    for (int i = 0; i < static_cast<int>(s.shadow.lesions.size()); ++i)
+      if (ImGui::Selectable(s.shadow.lesions[i].name.c_str(), i == panel_.lesion)) panel_.lesion = i;
+    ImGui::EndCombo();
+  }
+  // The sliders show the UI's copy; each change goes to the servo thread as a ParamChange.
+  const auto lesion = static_cast<int16_t>(panel_.lesion);
+  const Material& m = s.shadow.materials[s.shadow.lesions[panel_.lesion].material];
+  using F = ParamChange::Field;
+  const auto edit = [&](const char* label, F field, double value, double lo, double hi, const char* format, bool log) {
+    if (slider(label, value, lo, hi, format, log)) post(ParamChange{field, lesion, value});
+  };
+  edit("mu_s", F::MuS, m.mu_s, 0.0, 1.5, "%.3f", false);
+  edit("mu_d", F::MuD, m.mu_d, 0.0, 1.5, "%.3f", false);
+  edit("k_e (N/mm)", F::KE, m.k_e, 0.05, 5.0, "%.3f", true);
+  edit(m.k_c.kind == KcProfile::Kind::Constant ? "k_c (N/mm)" : "k_c (N/mm, layered)", F::KC, m.k_c.at(0.0), 0.05, 20.0,
+       "%.3f", true);
+  edit("F_p* (N)", F::FPStar, m.f_p_star, 0.1, 20.0, "%.2f", true);
+  edit("F_e* (N)", F::FEStar, m.f_e_star, 0.1, 20.0, "%.2f", true);
+  edit("stiffness (N/mm)", F::Stiffness, std::isfinite(m.stiffness) ? m.stiffness : 5.0, 0.05, 5.0, "%.3f", true);
+  if (ImGui::Button("Mild preset")) post(ParamChange{F::Preset, lesion, 0.0});
+  ImGui::SameLine();
+  if (ImGui::Button("Severe preset")) post(ParamChange{F::Preset, lesion, 1.0});
+
+  // Saving: a scene file in place (with a .bak), a built-in scene to a new file.
+  ImGui::Separator();
+  const bool builtin = !builtin_scene_yaml(s.source).empty();
+  if (builtin) {
+    if (panel_.save_path.empty()) panel_.save_path = s.source + "-tuned.yaml";
+    ImGui::InputText("save as", &panel_.save_path);
+    ImGui::BeginDisabled(panel_.save_path.empty());
+    if (ImGui::Button("Save to a new scene file")) save_scene();
+    ImGui::EndDisabled();
+  } else if (ImGui::Button("Save to the scene file")) {
+    save_scene();
+  }
+  ImGui::TextDisabled("Saving rewrites the YAML: comments are not kept.");
+}
+
+void ViewerApp::post(const ParamChange& change) {
+  if (!session_ || !session_->servo) return;
+  // The servo thread applies it between two steps; the panel's copy follows at once.
+  if (!session_->servo->post(change)) {
+    panel_.message = "The parameter queue is full; try again.";
+    panel_.message_is_error = true;
+    return;
+  }
+  apply_param_change(session_->shadow, change);
+}
+
+void ViewerApp::save_scene() {
+  Session& s = *session_;
+  // Every lesion's material as the panel holds it.
+  std::vector<LesionMaterialEdit> edits;
+  for (const LesionModel& lesion : s.shadow.lesions) edits.push_back({lesion.name, s.shadow.materials[lesion.material]});
+  const bool builtin = !builtin_scene_yaml(s.source).empty();
+  const std::filesystem::path target = builtin ? std::filesystem::path(panel_.save_path) : std::filesystem::path(s.source);
+  try {
+    const std::filesystem::path backup = save_lesion_materials(s.source, target, edits);
+    panel_.message = fmt::format("Saved the lesion parameters to {}; comments are not kept{}.", target.string(),
+                                 backup.empty() ? "" : fmt::format(" (the previous file is {})", backup.string()));
+    panel_.message_is_error = false;
+  } catch (const Error& e) {
+    panel_.message = e.what();
+    panel_.message_is_error = true;
+  }
+}
+
+std::string ViewerApp::status_json(int width, int height) const {
+  // What the UI showed in the screenshot's frame, and where things are in the image (px, top-left).
+  const StepOutput& out = snapshot_.out;
+  JsonWriter json;
+  json.begin_object();
+  json.field("scene", session_ ? session_->source : std::string());
+  json.field("device", options_.device);
+  json.field("state", state_name(out.state));
+  json.key("force").begin_array().value(out.force.x()).value(out.force.y()).value(out.force.z()).end_array();
+  json.field("force_norm", out.force.norm());
+  json.field("rendered_force_norm", snapshot_.force.norm());
+  json.field("torque_norm", out.torque.norm());
+  json.field("depth", out.depth);
+  json.field("contacts", out.contacts);
+  json.field("t", snapshot_.t);
+  json.field("lesions_shown", settings_.show_lesions);
+  json.key("timing").begin_object();
+  json.field("cycles", static_cast<long long>(timing_.cycles));
+  json.field("overruns", static_cast<long long>(timing_.overruns));
+  json.field("rate_hz", timing_.rate_hz);
+  json.field("step_p50_us", timing_.step_p50).field("step_p99_us", timing_.step_p99);
+  json.field("step_p999_us", timing_.step_p999).field("step_max_us", timing_.step_max);
+  json.field("jitter_p50_us", timing_.jitter_p50).field("jitter_p99_us", timing_.jitter_p99);
+  json.field("jitter_p999_us", timing_.jitter_p999).field("jitter_max_us", timing_.jitter_max);
+  json.end_object();
+  json.field("width", width).field("height", height);
+  json.key("background");
+  json_rgb(json, background_color());
+  json.key("tool_color");
+  json_rgb(json, tool_color());
+  const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+  json.key("panel").begin_object();
+  json.field("x", static_cast<double>(panel_.x * scale.x)).field("y", static_cast<double>(panel_.y * scale.y));
+  json.field("w", static_cast<double>(panel_.w * scale.x)).field("h", static_cast<double>(panel_.h * scale.y));
+  json.end_object();
+  json.key("view").begin_object().field("x", 0).field("y", 0).field("w", view_width_).field("h", height).end_object();
+
+  // The tool tip and points along the tool in the image, when in the view.
+  const auto pixel = [&](const Vec3& world, Eigen::Vector2d& px) {
+    return camera_.project(world, view_width_, height, px) && px.x() >= 0 && px.x() < view_width_ && px.y() >= 0 &&
+           px.y() < height;
+  };
+  Eigen::Vector2d px;
+  json.key("tip");
+  if (pixel(out.graphic.p, px)) json.begin_array().value(px.x()).value(px.y()).end_array();
+  else json.null();
+  json.key("tool_points").begin_array();
+  if (session_)
+    for (const Vec3& local : session_->view->tool_axis_points())
+      if (pixel(out.graphic.transform(local), px)) json.begin_array().value(px.x()).value(px.y()).end_array();
+  json.end_array();
+
+  // The object the strongest contact touches, and the colour it is drawn in.
+  json.key("touched");
+  const int count = std::clamp(out.contact_report_count, 0, kMaxReportedContacts);
+  const ContactReport* strongest = nullptr;
+  for (int i = 0; i < count; ++i)
+    if (strongest == nullptr || out.contact_reports[i].force > strongest->force) strongest = &out.contact_reports[i];
+  if (session_ && strongest != nullptr && strongest->object < session_->model->objects.size()) {
+    const int object = strongest->object;
+    json.begin_object();
+    json.field("object", session_->model->objects[object].name);
+    json.field("tissue", tissue_name(session_->view->object_display_tissue(object, settings_)));
+    json.key("color");
+    json_rgb(json, session_->view->object_color(object, settings_));
+    json.field("force", strongest->force);
+    json.end_object();
+  } else {
+    json.null();
+  }
+  json.end_object();
+  return json.str();
+}
+
+}  // namespace cariesim::viewer

@@ -1,0 +1,405 @@
+#include "viewer.hpp"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <epoxy/gl.h>
+#include <fmt/format.h>
+#include <imgui.h>
+#include <imgui/backends/imgui_impl_glfw.h>
+#include <imgui/backends/imgui_impl_opengl3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <thread>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
+#include "cariesim/experiment/json.hpp"
+#include "screenshot.hpp"
+#include "viewer_app.hpp"
+
+namespace cariesim::viewer {
+
+namespace {
+
+constexpr double kFramePeriod = 1.0 / 60.0;  // s, the display rate the loop paces itself to
+
+// The last GLFW error, for messages.
+std::string& glfw_error() {
+  static std::string error;
+  return error;
+}
+
+void on_glfw_error(int code, const char* description) {
+  glfw_error() = fmt::format("GLFW error {}: {}", code, description != nullptr ? description : "");
+}
+
+// The current UTC time, ISO 8601.
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+// FILE.png -> FILE.json.
+std::filesystem::path status_path(const std::filesystem::path& screenshot) {
+  std::filesystem::path p = screenshot;
+  p.replace_extension(".json");
+  return p;
+}
+
+}  // namespace
+
+bool display_available() {
+  const char* x11 = std::getenv("DISPLAY");
+  const char* wayland = std::getenv("WAYLAND_DISPLAY");
+  return (x11 != nullptr && *x11 != '\0') || (wayland != nullptr && *wayland != '\0');
+}
+
+std::string headless_message() {
+  return "cariesim run needs a display for its window, and DISPLAY is not set (no X11 or Wayland "
+         "session).\n"
+         "On a headless machine run it under a virtual X server, for example:\n"
+         "  xvfb-run -a -s \"-screen 0 1280x800x24\" cariesim run --screenshot run.png --exit-after 5\n"
+         "(xvfb-run is in Debian's xvfb package; scripts/run does this by itself when there is no display).\n";
+}
+
+Session::~Session() { stop(); }
+
+void Session::stop() {
+  if (servo) servo->stop();
+  if (recorder) recorder->stop();
+}
+
+ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
+  // Bad input fails before any window opens: the scene must parse, the device spec must make a device.
+  (void)load_scene(options_.scene);
+  if (options_.device != "mouse") {
+    const std::string_view spec(options_.device);
+    if (spec.starts_with("replay:")) (void)make_replay_device(std::string(spec.substr(7)));
+    else (void)make_device(options_.device);
+  }
+  settings_.show_lesions = options_.show_lesions;
+}
+
+ViewerApp::~ViewerApp() {
+  // The servo loop stops before its device and model go; GL objects go while the context lives.
+  session_.reset();
+  if (build_ && build_->result.valid()) build_->result.wait();
+  build_.reset();
+  renderer_.reset();
+  if (imgui_ready_) {
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+  }
+  if (window_ != nullptr) glfwDestroyWindow(window_);
+  glfwTerminate();
+}
+
+void ViewerApp::open_window() {
+  // GLFW with an OpenGL 3.3 core context.
+  glfwSetErrorCallback(on_glfw_error);
+  if (glfwInit() != GLFW_TRUE)
+    throw Error(fmt::format("cannot initialise GLFW ({}).\n{}", glfw_error(), headless_message()));
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  window_ = glfwCreateWindow(options_.width, options_.height, "cariesim", nullptr, nullptr);
+  if (window_ == nullptr)
+    throw Error(fmt::format("cannot open an OpenGL 3.3 core window ({})", glfw_error()));
+  glfwMakeContextCurrent(window_);
+  glfwSwapInterval(1);
+
+  // Dear ImGui on GLFW and OpenGL 3; no imgui.ini in the working directory.
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  ImGui_ImplOpenGL3_Init("#version 330 core");
+  imgui_ready_ = true;
+  renderer_ = std::make_unique<GlRenderer>();
+}
+
+void ViewerApp::request_build(const std::string& source) {
+  // Parse and build on a worker thread; progress goes to the panel.
+  build_error_.clear();
+  build_ = std::make_unique<PendingBuild>();
+  build_->source = source;
+  PendingBuild* pending = build_.get();
+  pending->result = std::async(std::launch::async, [pending, source] {
+    const SceneDesc desc = load_scene(source);
+    BuildOptions build;
+    build.progress = [pending](std::string_view stage, double fraction) {
+      const std::lock_guard lock(pending->mutex);
+      pending->stage = std::string(stage);
+      pending->fraction.store(fraction);
+    };
+    return std::make_unique<Model>(build_model(desc, build));
+  });
+  std::fprintf(stderr, "run: building %s\n", source.c_str());
+}
+
+void ViewerApp::poll_build() {
+  if (!build_ || build_->result.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+  // The build finished: start a session on it, or report why it failed (fatal for the first scene).
+  std::unique_ptr<PendingBuild> done = std::move(build_);
+  try {
+    std::unique_ptr<Model> model = done->result.get();
+    std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(), model->objects.size());
+    start_session(std::move(model), done->source);
+  } catch (const Error& e) {
+    if (!session_) throw;
+    build_error_ = e.what();
+  }
+}
+
+std::unique_ptr<Device> ViewerApp::make_session_device(const Model& model) {
+  // The mouse and replay devices are composed here; the rest come from the device factory.
+  if (options_.device == "mouse") return std::make_unique<MouseDevice>(model.tool_home, model.limits);
+  const std::string_view spec(options_.device);
+  if (spec.starts_with("replay:")) return make_replay_device(std::string(spec.substr(7)));
+  DeviceOptions device_options;
+  device_options.home = model.tool_home;
+  device_options.limits = model.limits;
+  return make_device(options_.device, device_options);
+}
+
+std::string ViewerApp::parameters_json(const Model& model) const {
+  // Every lesion's top material, as the session record's parameters.
+  JsonWriter json;
+  json.begin_object().key("lesions").begin_array();
+  for (const LesionModel& lesion : model.lesions) {
+    const Material& m = model.materials[lesion.material];
+    json.begin_object()
+        .field("name", lesion.name)
+        .field("mu_s", m.mu_s)
+        .field("mu_d", m.mu_d)
+        .field("k_e", m.k_e)
+        .field("k_c", m.k_c.at(0.0))
+        .field("stiffness", m.stiffness)
+        .field("f_p_star", m.f_p_star)
+        .field("f_e_star", m.f_e_star)
+        .end_object();
+  }
+  json.end_array().end_object();
+  return json.str();
+}
+
+void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source) {
+  // The old loop stops first; its view holds GL objects, freed here on the render thread.
+  const bool same_scene = session_ && session_->source == source;
+  if (session_) session_->stop();
+  session_.reset();
+
+  auto s = std::make_unique<Session>();
+  s->source = source;
+  s->model = std::move(model);
+  s->rate_hz = options_.rate_hz > 0.0 ? options_.rate_hz : s->model->servo_rate;
+  s->device = make_session_device(*s->model);
+  s->mouse = dynamic_cast<MouseDevice*>(s->device.get());
+  s->replay = dynamic_cast<ReplayDevice*>(s->device.get());
+  s->device_info = s->device->info();
+  s->shadow.lesions = s->model->lesions;
+  s->shadow.materials = s->model->materials;
+  s->view = std::make_unique<SceneView>(*s->model);
+
+  // The record (--record) covers the first session; a scene change ends it.
+  if (!options_.record.empty() && !record_used_) {
+    SessionInfo info;
+    info.scene = source;
+    info.scene_hash = s->model->scene_hash;
+    info.device = options_.device;
+    info.rate_hz = s->rate_hz;
+    info.parameters = parameters_json(*s->model);
+    info.started_at = utc_now();
+    s->recorder = std::make_unique<Recorder>(options_.record, info);
+    s->recorder->start();
+    record_used_ = true;
+  } else if (record_used_) {
+    panel_.message = "The record ended with the previous scene (" + options_.record + ").";
+    panel_.message_is_error = false;
+  }
+
+  // The view: framed on a new scene, the mouse target at the tool's home.
+  if (!same_scene) camera_.frame(s->view->bounds());
+  control_.reset(s->model->tool_home);
+  control_.workspace = s->model->limits.workspace;
+  panel_.lesion = 0;
+  session_ = std::move(s);
+  restart_servo();
+}
+
+void ViewerApp::restart_servo() {
+  // A fresh loop (and engine state) on the session's model and device, the mouse back at home.
+  Session& s = *session_;
+  if (s.servo) s.servo->stop();
+  s.servo.reset();
+  if (s.mouse != nullptr) {
+    s.mouse->jump_to(s.model->tool_home);
+    control_.reset(s.model->tool_home);
+  }
+  ServoOptions servo_options;
+  servo_options.rate_hz = s.rate_hz;
+  servo_options.realtime = options_.realtime;
+  servo_options.record = s.recorder ? &s.recorder->queue() : nullptr;
+  s.servo = std::make_unique<ServoLoop>(*s.model, *s.device, servo_options);
+  s.servo->start();
+  have_snapshot_ = false;
+  history_.clear();
+  timing_ = TimingReport{};
+  timing_refreshed_ = std::chrono::steady_clock::now();
+}
+
+void ViewerApp::handle_input() {
+  const ImGuiIO& io = ImGui::GetIO();
+  if (!io.WantCaptureMouse) {
+    // Camera: orbit with the middle button or alt + left; ctrl + wheel zooms.
+    const double dx = io.MouseDelta.x, dy = io.MouseDelta.y;
+    const bool orbit = io.MouseDown[2] || (io.KeyAlt && io.MouseDown[0]);
+    const bool have_mouse = session_ && session_->mouse != nullptr;
+    if (orbit && std::isfinite(dx) && std::isfinite(dy)) camera_.orbit(-0.01 * dx, 0.01 * dy);
+    if (io.MouseWheel != 0.0f && (io.KeyCtrl || !have_mouse)) camera_.zoom(std::pow(0.9, io.MouseWheel));
+
+    // The mouse device: left-drag moves the tool in the view plane, the wheel in depth, right-drag turns it.
+    if (have_mouse) {
+      if (!orbit && io.MouseDown[0] && std::isfinite(dx)) control_.drag_move(dx, dy, camera_, io.DisplaySize.y);
+      if (io.MouseDown[1] && std::isfinite(dx)) control_.drag_rotate(dx, dy, camera_);
+      if (io.MouseWheel != 0.0f && !io.KeyCtrl) control_.wheel(io.MouseWheel, camera_, io.KeyShift);
+      session_->mouse->set_target(control_.target());
+    }
+  }
+  if (!io.WantCaptureKeyboard) {
+    // Keys: R resets the tool, F frames the scene, L reveals or hides the lesions.
+    if (ImGui::IsKeyPressed(GLFW_KEY_R, false) && session_ && !session_->recorder) restart_servo();
+    if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
+    if (ImGui::IsKeyPressed(GLFW_KEY_L, false)) settings_.show_lesions = !settings_.show_lesions;
+  }
+}
+
+void ViewerApp::read_snapshot() {
+  if (!session_ || !session_->servo) return;
+  // The newest snapshot (lock-free); the plot keeps a few seconds of them.
+  if (session_->servo->latest(snapshot_)) {
+    have_snapshot_ = true;
+    history_.add(snapshot_.t, snapshot_.out.force, snapshot_.out.torque);
+  }
+  // Timing and device counters about once a second.
+  const auto now = std::chrono::steady_clock::now();
+  if (now - timing_refreshed_ > std::chrono::seconds(1)) {
+    timing_ = session_->servo->timing();
+    counters_ = session_->device->counters();
+    timing_refreshed_ = now;
+  }
+}
+
+void ViewerApp::draw_scene(int width, int height) {
+  // Clear to the background, then the scene for the latest snapshot.
+  // The 3-D view takes the window left of the panel.
+  const Rgba bg = background_color();
+  glViewport(0, 0, width, height);
+  glClearColor(bg[0], bg[1], bg[2], 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  view_width_ = std::max(1, width - static_cast<int>(kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x));
+  if (!session_ || !have_snapshot_ || height <= 0) return;
+  glViewport(0, 0, view_width_, height);
+  FrameParams frame;
+  frame.view = camera_.view();
+  frame.projection = camera_.projection(static_cast<double>(view_width_) / height);
+  frame.eye = camera_.eye();
+  renderer_->begin(frame);
+  std::optional<Pose> recorded;
+  if (session_->replay != nullptr) recorded = session_->replay->recorded_graphic(snapshot_.t);
+  session_->view->draw(*renderer_, snapshot_, settings_, recorded);
+  glViewport(0, 0, width, height);
+}
+
+int ViewerApp::run() {
+  open_window();
+  request_build(options_.scene);
+  auto frame_start = std::chrono::steady_clock::now();
+  while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
+    glfwPollEvents();
+    poll_build();
+
+    // One frame: input, the newest snapshot, the scene, the panel.
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    handle_input();
+    read_snapshot();
+    int width = 0, height = 0;
+    glfwGetFramebufferSize(window_, &width, &height);
+    draw_scene(width, height);
+    draw_panel();
+    draw_build_progress();
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+    // Automation: once the servo clock passes exit_after, keep this frame and leave.
+    if (options_.exit_after > 0.0 && have_snapshot_ && snapshot_.t >= options_.exit_after) {
+      finish(width, height);
+      break;
+    }
+    glfwSwapBuffers(window_);
+
+    // Pace the display loop (there is no vsync under Xvfb) so the servo thread keeps a core.
+    std::this_thread::sleep_until(frame_start + std::chrono::duration<double>(kFramePeriod));
+    frame_start = std::chrono::steady_clock::now();
+  }
+  if (session_) session_->stop();
+  if (session_ && session_->servo) timing_ = session_->servo->timing();
+  print_summary();
+  return 0;
+}
+
+void ViewerApp::finish(int width, int height) {
+  // Stop the loop (exact timing), then write the screenshot and its status file.
+  if (session_) session_->stop();
+  if (session_ && session_->servo) timing_ = session_->servo->timing();
+  if (options_.screenshot.empty()) return;
+  write_png(read_framebuffer(width, height), options_.screenshot);
+  const std::filesystem::path status = status_path(options_.screenshot);
+  std::ofstream out(status, std::ios::trunc);
+  out << status_json(width, height) << "\n";
+  if (!out) throw Error(status.string() + ": cannot write the status file");
+}
+
+void ViewerApp::print_summary() const {
+  // What the UI showed last, and the servo loop's timing (TimingReport).
+  if (!session_) return;
+  const StepOutput& out = snapshot_.out;
+  std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(), options_.device.c_str(),
+              session_->rate_hz);
+  std::printf("state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
+              state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
+              out.contacts, snapshot_.t);
+  std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
+              static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
+              static_cast<unsigned long long>(timing_.overruns),
+              session_->servo ? session_->servo->realtime_status().c_str() : "-");
+  std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50, timing_.step_p99,
+              timing_.step_p999, timing_.step_max);
+  std::printf("jitter (us):    p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.jitter_p50, timing_.jitter_p99,
+              timing_.jitter_p999, timing_.jitter_max);
+  if (!options_.screenshot.empty())
+    std::printf("screenshot: %s (status: %s)\n", options_.screenshot.c_str(),
+                status_path(options_.screenshot).string().c_str());
+  std::fflush(stdout);
+}
+
+int run_viewer(const ViewerOptions& options) {
+  ViewerApp app(options);
+  return app.run();
+}
+
+}  // namespace cariesim::viewer

@@ -1,0 +1,34 @@
+#pragma once
+/// The interactive simulator (`cariesim run`, DESIGN.md §5): a GLFW window with OpenGL 3.3 core and
+/// Dear ImGui, the servo loop on its own thread, a device (the mouse by default), optionally a
+/// session record. docs/viewer.md describes what the user sees and the controls.
+
+#include <string>
+
+namespace cariesim::viewer {
+
+struct ViewerOptions {
+  std::string scene = "oral-cavity";  ///< built-in scene name or scene YAML file
+  std::string device = "mouse";       ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
+  double rate_hz = 0.0;               ///< Hz, servo rate; 0: the scene's
+  std::string record;                 ///< SQLite file for the session record; empty: none
+  std::string screenshot;             ///< PNG written after `exit_after`; empty: none
+  double exit_after = 0.0;            ///< s of servo time after which the viewer exits; 0: never
+  bool show_lesions = false;          ///< start with the lesions revealed (hidden is a trial's default)
+  bool realtime = true;               ///< ask for real-time priority for the servo thread
+  int width = 1280;                   ///< px, window width
+  int height = 800;                   ///< px, window height
+};
+
+/// True when a window system is reachable (DISPLAY or WAYLAND_DISPLAY is set).
+bool display_available();
+
+/// What to tell a user without a display: why, and how to run under Xvfb instead.
+std::string headless_message();
+
+/// Opens the window on the scene and runs until it is closed (or `exit_after` passes). Returns the
+/// process exit status: 0 done; throws cariesim::Error for bad input (scene, device, files) and when
+/// no window can be opened.
+int run_viewer(const ViewerOptions& options);
+
+}  // namespace cariesim::viewer

@@ -1,0 +1,135 @@
+#pragma once
+/// The viewer application behind run_viewer (viewer.hpp): the window, sessions (model + device +
+/// servo loop + record), the scene builder thread, input, drawing, the ImGui panel, exit and
+/// screenshot. Internal to apps/viewer.
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "camera.hpp"
+#include "cariesim/device/device.hpp"
+#include "cariesim/record/recorder.hpp"
+#include "cariesim/record/replay.hpp"
+#include "cariesim/render/model.hpp"
+#include "cariesim/scene/scene.hpp"
+#include "cariesim/servo/servo.hpp"
+#include "force_history.hpp"
+#include "gl_renderer.hpp"
+#include "mouse_device.hpp"
+#include "scene_view.hpp"
+#include "viewer.hpp"
+
+struct GLFWwindow;
+
+namespace cariesim::viewer {
+
+/// A model being simulated: its device, the servo loop, the record, and what the panel mirrors.
+/// Members are declared so that destruction stops the loop before the device and the model go.
+struct Session {
+  std::string source;              ///< scene name or file it was built from
+  std::unique_ptr<Model> model;
+  std::unique_ptr<Device> device;
+  MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
+  ReplayDevice* replay = nullptr;  ///< the device when it is a replay
+  std::unique_ptr<Recorder> recorder;
+  std::unique_ptr<ServoLoop> servo;
+  std::unique_ptr<SceneView> view;
+  /// The lesions and materials as the UI last set them: the servo thread owns the model's, and the
+  /// UI applies each ParamChange it posts to this copy too.
+  Model shadow;
+  DeviceInfo device_info;   ///< what the device said it is when the session started
+  double rate_hz = 1000.0;  ///< Hz
+  ~Session();
+  /// Stops the servo loop, then the recorder (idempotent).
+  void stop();
+};
+
+/// A scene being built on a worker thread.
+struct PendingBuild {
+  std::string source;
+  std::future<std::unique_ptr<Model>> result;
+  std::mutex mutex;  // guards `stage` (worker and UI thread; never the servo thread)
+  std::string stage;
+  std::atomic<double> fraction{0.0};
+};
+
+/// What the panel keeps between frames.
+struct PanelState {
+  int lesion = 0;              ///< selected lesion
+  int builtin = 0;             ///< selected built-in scene
+  std::string scene_path;      ///< the scene-file text field
+  std::string save_path;       ///< where a built-in scene is saved
+  std::string message;         ///< the last action's outcome
+  bool message_is_error = false;
+  float force_scale = 1.0f;    ///< global force scale, in [0, 1]
+  float x = 0, y = 0, w = 0, h = 0;  ///< px, where the panel window was drawn last
+};
+
+class ViewerApp {
+ public:
+  explicit ViewerApp(const ViewerOptions& options);
+  ~ViewerApp();
+  ViewerApp(const ViewerApp&) = delete;
+  ViewerApp& operator=(const ViewerApp&) = delete;
+  /// Runs until the window closes or exit_after passes; returns the exit status.
+  int run();
+
+ private:
+  // Window and GL (viewer.cpp).
+  void open_window();
+  // Sessions (viewer.cpp).
+  void request_build(const std::string& source);
+  void poll_build();
+  std::unique_ptr<Device> make_session_device(const Model& model);
+  void start_session(std::unique_ptr<Model> model, const std::string& source);
+  void restart_servo();
+  [[nodiscard]] std::string parameters_json(const Model& model) const;
+  // Frame work (viewer.cpp).
+  void handle_input();
+  void read_snapshot();
+  void draw_scene(int width, int height);
+  void finish(int width, int height);
+  void print_summary() const;
+  // Panel (panel.cpp).
+  void draw_panel();
+  void draw_build_progress();
+  void panel_scene();
+  void panel_status();
+  void panel_plots();
+  void panel_view();
+  void panel_lesion();
+  void post(const ParamChange& change);
+  void save_scene();
+  [[nodiscard]] std::string status_json(int width, int height) const;
+
+  ViewerOptions options_;
+  GLFWwindow* window_ = nullptr;
+  bool imgui_ready_ = false;
+  std::unique_ptr<GlRenderer> renderer_;
+  OrbitCamera camera_;
+  MouseControl control_;
+  ViewSettings settings_;
+  ForceHistory history_;
+  std::unique_ptr<Session> session_;
+  std::unique_ptr<PendingBuild> build_;
+  std::string build_error_;
+  bool record_used_ = false;  // --record covers the first session only
+  ServoSnapshot snapshot_;
+  bool have_snapshot_ = false;
+  TimingReport timing_;  // refreshed about once a second
+  std::chrono::steady_clock::time_point timing_refreshed_{};
+  std::vector<DeviceCounter> counters_;
+  PanelState panel_;
+  std::vector<float> plot_scratch_;
+  int view_width_ = 0;  // px, the 3-D view's width (the panel takes the rest of the window)
+};
+
+/// px, width of the panel docked at the window's right edge.
+inline constexpr float kPanelWidth = 400.0f;
+
+}  // namespace cariesim::viewer

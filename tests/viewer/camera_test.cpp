@@ -1,0 +1,112 @@
+// The orbit camera (apps/viewer/camera.cpp): framing, projection, screen axes, limits.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "viewer/camera.hpp"
+
+namespace {
+
+using cariesim::Vec3;
+using cariesim::viewer::OrbitCamera;
+
+// The target projects to the centre of the viewport; the eye is `distance` away from it.
+TEST(OrbitCamera, TargetProjectsToTheCentre) {
+  OrbitCamera camera;
+  camera.target = Vec3(3.0, -2.0, 5.0);
+  camera.distance = 80.0;
+  camera.yaw = 0.4;
+  camera.pitch = 0.3;
+  Eigen::Vector2d px;
+  ASSERT_TRUE(camera.project(camera.target, 800.0, 600.0, px));
+  EXPECT_NEAR(px.x(), 400.0, 1e-9);
+  EXPECT_NEAR(px.y(), 300.0, 1e-9);
+  EXPECT_NEAR((camera.eye() - camera.target).norm(), 80.0, 1e-9);
+}
+
+// Right, up and forward are orthonormal and right-handed (right x up = -forward, toward the eye).
+TEST(OrbitCamera, ScreenAxesAreOrthonormal) {
+  OrbitCamera camera;
+  for (const double yaw : {-2.0, 0.0, 1.0}) {
+    for (const double pitch : {-1.0, 0.0, 0.7}) {
+      camera.yaw = yaw;
+      camera.pitch = pitch;
+      EXPECT_NEAR(camera.right().norm(), 1.0, 1e-12);
+      EXPECT_NEAR(camera.up().norm(), 1.0, 1e-12);
+      EXPECT_NEAR(camera.right().dot(camera.forward()), 0.0, 1e-12);
+      EXPECT_NEAR(camera.up().dot(camera.forward()), 0.0, 1e-12);
+      EXPECT_TRUE(camera.right().cross(camera.up()).isApprox(-camera.forward(), 1e-12));
+      EXPECT_GT(camera.up().z(), 0.0) << "the scene's +z is up on the screen";
+    }
+  }
+}
+
+// A world step of mm_per_pixel along the screen's right axis moves the projection by one pixel.
+TEST(OrbitCamera, MillimetresPerPixelMatchTheProjection) {
+  OrbitCamera camera;
+  camera.distance = 120.0;
+  const Vec3 p = camera.target + camera.forward() * 10.0;
+  const double depth = (p - camera.eye()).dot(camera.forward());
+  const double mm = camera.mm_per_pixel(depth, 700.0);
+  Eigen::Vector2d a, b, c;
+  ASSERT_TRUE(camera.project(p, 1000.0, 700.0, a));
+  ASSERT_TRUE(camera.project(p + camera.right() * (25.0 * mm), 1000.0, 700.0, b));
+  ASSERT_TRUE(camera.project(p + camera.up() * (25.0 * mm), 1000.0, 700.0, c));
+  EXPECT_NEAR(b.x() - a.x(), 25.0, 1e-6);
+  EXPECT_NEAR(b.y() - a.y(), 0.0, 1e-6);
+  EXPECT_NEAR(c.y() - a.y(), -25.0, 1e-6) << "up on the screen is toward smaller pixel rows";
+}
+
+// After framing, every corner of the box is in view; a point behind the eye does not project.
+TEST(OrbitCamera, FrameKeepsTheBoxInView) {
+  OrbitCamera camera;
+  const Eigen::AlignedBox3d box(Vec3(-30, -20, -15), Vec3(35, 25, 10));
+  camera.frame(box);
+  EXPECT_TRUE(camera.target.isApprox(box.center()));
+  for (int i = 0; i < 8; ++i) {
+    Eigen::Vector2d px;
+    ASSERT_TRUE(camera.project(box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(i)), 800.0, 800.0, px));
+    EXPECT_GE(px.x(), 0.0);
+    EXPECT_LE(px.x(), 800.0);
+    EXPECT_GE(px.y(), 0.0);
+    EXPECT_LE(px.y(), 800.0);
+  }
+  Eigen::Vector2d px;
+  EXPECT_FALSE(camera.project(camera.eye() - camera.forward(), 800.0, 800.0, px));
+}
+
+// The view matrix maps the eye to the origin and the target onto -z at `distance`.
+TEST(OrbitCamera, ViewMatrixLooksDownMinusZ) {
+  OrbitCamera camera;
+  camera.target = Vec3(1, 2, 3);
+  camera.distance = 50.0;
+  const Eigen::Vector4f eye = camera.view() * Eigen::Vector4f(static_cast<float>(camera.eye().x()),
+                                                              static_cast<float>(camera.eye().y()),
+                                                              static_cast<float>(camera.eye().z()), 1.0f);
+  const Eigen::Vector4f target = camera.view() * Eigen::Vector4f(1, 2, 3, 1);
+  EXPECT_NEAR(eye.head<3>().norm(), 0.0, 1e-4);
+  EXPECT_NEAR(target.z(), -50.0, 1e-4);
+  EXPECT_NEAR(target.x(), 0.0, 1e-4);
+  // The projection puts the target between the clip planes.
+  const Eigen::Vector4f clip = camera.projection(1.5) * target;
+  EXPECT_LT(std::abs(clip.z() / clip.w()), 1.0f);
+}
+
+// Orbiting keeps the pitch within ±89°; zooming stays within [1 mm, 2 m] and ignores bad factors.
+TEST(OrbitCamera, OrbitAndZoomLimits) {
+  OrbitCamera camera;
+  camera.orbit(0.0, 10.0);
+  EXPECT_NEAR(camera.pitch, 89.0 * M_PI / 180.0, 1e-12);
+  camera.orbit(0.0, -20.0);
+  EXPECT_NEAR(camera.pitch, -89.0 * M_PI / 180.0, 1e-12);
+  camera.distance = 10.0;
+  camera.zoom(1e-6);
+  EXPECT_DOUBLE_EQ(camera.distance, 1.0);
+  camera.zoom(1e9);
+  EXPECT_DOUBLE_EQ(camera.distance, 2000.0);
+  camera.zoom(std::nan(""));
+  camera.zoom(-2.0);
+  EXPECT_DOUBLE_EQ(camera.distance, 2000.0);
+}
+
+}  // namespace

@@ -1,0 +1,298 @@
+// The real `cariesim run` under Xvfb (software OpenGL): the viewer starts on every built-in scene, a
+// scripted device brings the tool onto a tooth or block, and the screenshot shows the touched
+// tissue, the tool and the panel, checked with pixel statistics in the regions the status file
+// names (not a golden image), while the UI reads "sliding" and a non-zero force. The screenshots
+// stay in the build folder as artefacts: test-artifacts/viewer/<scene>.png (+ .json, .log).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <stb/stb_image.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cariesim/scene/scene.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// s of servo time before the screenshot: the trajectories press from t = 2.5 s on.
+constexpr double kExitAfter = 4.0;
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+fs::path artefacts() {
+  const fs::path dir = fs::path(CARIESIM_BINARY_DIR) / "test-artifacts" / "viewer";
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Runs a shell command; returns its exit status (-1 when it did not exit).
+int shell(const std::string& command) {
+  const int raw = std::system(command.c_str());
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+}
+
+bool have_xvfb() { return shell("command -v xvfb-run >/dev/null 2>&1") == 0; }
+
+struct RunResult {
+  int status = -1;
+  std::string out, err;
+};
+
+// `cariesim ARGS` under xvfb-run with the shared test tree cache; generous time limit.
+RunResult run_under_xvfb(const std::string& args, const std::string& name) {
+  const fs::path dir = artefacts();
+  const fs::path out = dir / (name + ".out"), err = dir / (name + ".log");
+  const std::string command = "CARIESIM_CACHE_DIR='" + (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string() +
+                              "' timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' '" + CARIESIM_EXE + "' " + args +
+                              " >'" + out.string() + "' 2>'" + err.string() + "'";
+  RunResult r;
+  r.status = shell(command);
+  r.out = read_text(out);
+  r.err = read_text(err);
+  return r;
+}
+
+// The status file flattened by Python's JSON parser into "key value..." lines.
+struct Status {
+  std::map<std::string, std::string> text;                    // string fields
+  std::map<std::string, std::vector<double>> number;          // numbers and number arrays
+  std::vector<std::vector<double>> tool_points;               // px
+};
+
+Status read_status(const fs::path& json) {
+  const fs::path script = json.string() + ".py", flat = json.string() + ".txt";
+  std::ofstream(script) << R"(import json, sys
+d = json.load(open(sys.argv[1]))
+for k in ("scene", "device", "state"):
+    print("T", k, d[k])
+for k in ("force_norm", "rendered_force_norm", "depth", "t", "width", "height"):
+    print("N", k, d[k])
+print("N background", *d["background"])
+print("N tool_color", *d["tool_color"])
+p = d["panel"]; print("N panel", p["x"], p["y"], p["w"], p["h"])
+v = d["view"]; print("N view", v["x"], v["y"], v["w"], v["h"])
+if d["tip"] is not None: print("N tip", *d["tip"])
+for q in d["tool_points"]: print("P", *q)
+t = d["touched"]
+if t is not None:
+    print("T touched", t["object"]); print("T touched_tissue", t["tissue"]); print("N touched_color", *t["color"])
+)";
+  EXPECT_EQ(shell("python3 '" + script.string() + "' '" + json.string() + "' >'" + flat.string() + "' 2>&1"), 0)
+      << read_text(flat) << "\n" << read_text(json);
+  Status s;
+  std::istringstream lines(read_text(flat));
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::istringstream in(line);
+    std::string kind, key;
+    in >> kind;
+    if (kind == "P") {
+      std::vector<double> p(2);
+      in >> p[0] >> p[1];
+      s.tool_points.push_back(p);
+      continue;
+    }
+    in >> key;
+    if (kind == "T") {
+      std::string value;
+      std::getline(in >> std::ws, value);
+      s.text[key] = value;
+    } else {
+      double v;
+      while (in >> v) s.number[key].push_back(v);
+    }
+  }
+  return s;
+}
+
+struct Image {
+  int w = 0, h = 0;
+  std::unique_ptr<unsigned char, void (*)(void*)> data{nullptr, stbi_image_free};
+  [[nodiscard]] const unsigned char* at(int x, int y) const { return data.get() + 3 * (static_cast<std::size_t>(y) * w + x); }
+};
+
+Image load_png(const fs::path& file) {
+  Image img;
+  int channels = 0;
+  img.data.reset(stbi_load(file.c_str(), &img.w, &img.h, &channels, 3));
+  return img;
+}
+
+double luminance(const unsigned char* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+int channel_distance(const unsigned char* p, const std::vector<double>& c) {
+  int d = 0;
+  for (int k = 0; k < 3; ++k) d = std::max(d, static_cast<int>(std::abs(p[k] - c[k])));
+  return d;
+}
+
+// Same hue family as `c` (chromaticity within 0.03, shading aside) and not the background.
+bool like_color(const unsigned char* p, const std::vector<double>& c, const std::vector<double>& background) {
+  const double sp = p[0] + p[1] + p[2], sc = c[0] + c[1] + c[2];
+  if (sp < 60.0 || channel_distance(p, background) <= 12) return false;
+  const double dr = p[0] / sp - c[0] / sc, dg = p[1] / sp - c[1] / sc;
+  return std::hypot(dr, dg) < 0.03;
+}
+
+// Per-region statistics, printed for the report.
+struct Stats {
+  int pixels = 0;
+  double mean_luminance = 0.0;
+  double bright = 0.0;          // fraction with luminance > 170
+  double background = 0.0;      // fraction within 12 of the background colour
+  double like = 0.0;            // fraction in the colour family asked for
+};
+
+Stats region_stats(const Image& img, int x0, int y0, int x1, int y1, const std::vector<double>& background,
+                   const std::vector<double>* like) {
+  Stats s;
+  x0 = std::clamp(x0, 0, img.w);
+  x1 = std::clamp(x1, 0, img.w);
+  y0 = std::clamp(y0, 0, img.h);
+  y1 = std::clamp(y1, 0, img.h);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const unsigned char* p = img.at(x, y);
+      ++s.pixels;
+      const double l = luminance(p);
+      s.mean_luminance += l;
+      if (l > 170.0) s.bright += 1;
+      if (channel_distance(p, background) <= 12) s.background += 1;
+      if (like != nullptr && like_color(p, *like, background)) s.like += 1;
+    }
+  if (s.pixels > 0) {
+    s.mean_luminance /= s.pixels;
+    s.bright /= s.pixels;
+    s.background /= s.pixels;
+    s.like /= s.pixels;
+  }
+  return s;
+}
+
+std::string scene_test_name(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = info.param;
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
+class ViewerXvfb : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (Debian package xvfb; scripts/setup installs it)";
+  }
+};
+
+// Every built-in scene: a scripted touch, then the screenshot's regions and the UI's state.
+TEST_P(ViewerXvfb, ScriptedTouchShowsToothToolAndPanel) {
+  const std::string scene = GetParam();
+  const fs::path trajectory = fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "trajectories" / ("viewer-touch-" + scene + ".csv");
+  ASSERT_TRUE(fs::exists(trajectory)) << trajectory;
+  const fs::path png = artefacts() / (scene + ".png"), json = artefacts() / (scene + ".json");
+  fs::remove(png);
+  fs::remove(json);
+  const RunResult r = run_under_xvfb("run --scene " + scene + " --device 'scripted:" + trajectory.string() +
+                                         "' --no-realtime --exit-after " + std::to_string(kExitAfter) +
+                                         " --screenshot '" + png.string() + "'",
+                                     scene);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_THAT(r.out, HasSubstr("state sliding"));
+  EXPECT_THAT(r.out, HasSubstr("step time (us): p50"));
+  ASSERT_TRUE(fs::exists(png) && fs::exists(json)) << r.err;
+
+  // The UI's readouts at the screenshot: sliding with a force, the servo clock past exit_after.
+  const Status status = read_status(json);
+  EXPECT_EQ(status.text.at("scene"), scene);
+  EXPECT_EQ(status.text.at("state"), "sliding");
+  EXPECT_GT(status.number.at("force_norm").at(0), 0.05);
+  EXPECT_GE(status.number.at("t").at(0), kExitAfter);
+
+  // The image is the window's framebuffer.
+  const Image img = load_png(png);
+  ASSERT_NE(img.data, nullptr) << png;
+  EXPECT_EQ(img.w, static_cast<int>(status.number.at("width").at(0)));
+  EXPECT_EQ(img.h, static_cast<int>(status.number.at("height").at(0)));
+  const std::vector<double>& bg = status.number.at("background");
+
+  // The panel: ImGui's dark window with light text, not the 3-D background.
+  const std::vector<double>& p = status.number.at("panel");
+  const Stats panel = region_stats(img, static_cast<int>(p[0]) + 4, static_cast<int>(p[1]) + 4,
+                                   static_cast<int>(p[0] + p[2]) - 4, static_cast<int>(p[1] + p[3]) - 4, bg, nullptr);
+  std::printf("[%s] panel: %d px, mean luminance %.1f, text (bright) %.3f, background-coloured %.3f\n", scene.c_str(),
+              panel.pixels, panel.mean_luminance, panel.bright, panel.background);
+  EXPECT_GT(panel.pixels, 100000);
+  EXPECT_LT(panel.mean_luminance, 60.0);
+  EXPECT_GT(panel.bright, 0.005) << "the panel shows text";
+  EXPECT_LT(panel.background, 0.2);
+
+  // Around the tool tip: the touched tooth or block, in its tissue's colour.
+  ASSERT_TRUE(status.number.count("tip")) << "the tip is in view";
+  ASSERT_TRUE(status.number.count("touched_color")) << "the tool touches something";
+  const std::vector<double>& tip = status.number.at("tip");
+  const std::vector<double>& color = status.number.at("touched_color");
+  const Stats tooth = region_stats(img, static_cast<int>(tip[0]) - 30, static_cast<int>(tip[1]) - 30,
+                                   static_cast<int>(tip[0]) + 31, static_cast<int>(tip[1]) + 31, bg, &color);
+  std::printf("[%s] around the tip (%s, %s): %d px, %.3f in its colour, %.3f background\n", scene.c_str(),
+              status.text.at("touched").c_str(), status.text.at("touched_tissue").c_str(), tooth.pixels, tooth.like,
+              tooth.background);
+  EXPECT_GT(tooth.like, 0.3) << "the " << status.text.at("touched_tissue") << " colour around the tip";
+  if (scene == "oral-cavity") EXPECT_EQ(status.text.at("touched_tissue"), "enamel");
+
+  // Along the tool: points on its centre line differ from the background.
+  int in_view = 0, drawn = 0;
+  for (const auto& q : status.tool_points) {
+    ++in_view;
+    const Stats s = region_stats(img, static_cast<int>(q[0]) - 2, static_cast<int>(q[1]) - 2,
+                                 static_cast<int>(q[0]) + 3, static_cast<int>(q[1]) + 3, bg, nullptr);
+    if (s.background < 0.5) ++drawn;
+  }
+  std::printf("[%s] tool: %d of %d centre-line points in view are drawn\n", scene.c_str(), drawn, in_view);
+  EXPECT_GE(in_view, 3);
+  EXPECT_GE(drawn, (in_view * 3 + 3) / 4);
+}
+
+INSTANTIATE_TEST_SUITE_P(BuiltinScenes, ViewerXvfb, ::testing::ValuesIn(cariesim::builtin_scene_names()),
+                         scene_test_name);
+
+// The default: oral-cavity with the mouse device; the tool waits at its home, free.
+TEST(ViewerXvfbDefault, MouseOnOralCavity) {
+  if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
+  const fs::path png = artefacts() / "default-mouse.png";
+  const RunResult r = run_under_xvfb("run --no-realtime --exit-after 1.5 --screenshot '" + png.string() + "'", "default-mouse");
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const Status status = read_status(artefacts() / "default-mouse.json");
+  EXPECT_EQ(status.text.at("scene"), "oral-cavity");
+  EXPECT_EQ(status.text.at("device"), "mouse");
+  EXPECT_EQ(status.text.at("state"), "free");
+  EXPECT_THAT(r.out, HasSubstr("servo:"));
+}
+
+// Without a display `cariesim run` says so, names xvfb-run, and fails.
+TEST(ViewerHeadless, NoDisplayIsAClearError) {
+  const fs::path err = artefacts() / "headless.log";
+  const int status =
+      shell("env -u DISPLAY -u WAYLAND_DISPLAY '" + std::string(CARIESIM_EXE) + "' run >/dev/null 2>'" + err.string() + "'");
+  EXPECT_EQ(status, 4);
+  const std::string text = read_text(err);
+  EXPECT_THAT(text, HasSubstr("DISPLAY is not set"));
+  EXPECT_THAT(text, HasSubstr("xvfb-run"));
+}
+
+}  // namespace
