@@ -5,12 +5,19 @@
 
 namespace cariesim::viewer {
 
+namespace {
+
+constexpr double kFrameTightness = 0.8;  // fraction of the bounding sphere's distance
+
+}  // namespace
+
 void OrbitCamera::frame(const Eigen::AlignedBox3d& box) {
   if (box.isEmpty()) return;
-  // Centre on the box; back off until its bounding sphere fits the vertical field of view.
+  // Centre on the box; back off until most of its bounding sphere fits the vertical field of view
+  // (the sphere is loose around flat scenes: the whole sphere would leave them small).
   target = box.center();
   const double radius = std::max(0.5 * box.diagonal().norm(), 1.0);
-  distance = std::clamp(radius / std::sin(0.5 * fov_y), 1.0, 2000.0);
+  distance = std::clamp(kFrameTightness * radius / std::sin(0.5 * fov_y), 1.0, 2000.0);
 }
 
 Vec3 OrbitCamera::forward() const {

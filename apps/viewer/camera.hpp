@@ -17,7 +17,7 @@ class OrbitCamera {
   Vec3 target = Vec3::Zero();  ///< mm, the point looked at (world)
   double distance = 100.0;     ///< mm, from the eye to the target
   double yaw = 0.0;            ///< rad, about world +z; 0 looks along +y (from the front of the mouth)
-  double pitch = 0.6;          ///< rad, above the horizontal plane (positive looks down)
+  double pitch = 0.85;         ///< rad, above the horizontal plane (positive looks down)
   double fov_y = 0.6;          ///< rad, vertical field of view
 
   /// Frames a box: the target at its centre, the distance so that the whole box fits in view.

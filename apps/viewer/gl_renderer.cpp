@@ -13,8 +13,9 @@ namespace cariesim::viewer {
 
 namespace {
 
-// Lit meshes and instanced spheres: a head light a little above the eye, a fill light from above,
-// a touch of specular; two-sided so that open or inverted surfaces still shade.
+// Lit meshes and instanced spheres: a head light a little above the eye, a fill light from above
+// (so surfaces seen at grazing angles still show), a touch of specular; two-sided so that open or
+// inverted surfaces still shade. u_inflate pushes vertices out along their normals (mm).
 constexpr const char* kMeshVertex = R"(#version 330 core
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
@@ -22,10 +23,11 @@ layout(location = 2) in vec4 a_instance;
 uniform mat4 u_model;
 uniform mat4 u_view_proj;
 uniform bool u_instanced;
+uniform float u_inflate;
 out vec3 v_world;
 out vec3 v_normal;
 void main() {
-  vec3 local = u_instanced ? a_instance.xyz + a_instance.w * a_position : a_position;
+  vec3 local = u_instanced ? a_instance.xyz + a_instance.w * a_position : a_position + u_inflate * a_normal;
   vec4 world = u_model * vec4(local, 1.0);
   v_world = world.xyz;
   v_normal = mat3(u_model) * a_normal;
@@ -48,7 +50,7 @@ void main() {
   float diffuse = max(dot(n, key), 0.0);
   float fill_diffuse = max(dot(n, fill), 0.0);
   float specular = pow(max(dot(n, normalize(key + v)), 0.0), 40.0);
-  vec3 c = u_color.rgb * (0.22 + 0.62 * diffuse + 0.18 * fill_diffuse) + vec3(0.22) * specular;
+  vec3 c = u_color.rgb * (0.26 + 0.52 * diffuse + 0.30 * fill_diffuse) + vec3(0.2) * specular;
   frag_color = vec4(min(c, vec3(1.0)), u_color.a);
 }
 )";
@@ -271,6 +273,7 @@ GlRenderer::GlRenderer() {
   u_color_ = glGetUniformLocation(mesh_program_, "u_color");
   u_eye_ = glGetUniformLocation(mesh_program_, "u_eye");
   u_instanced_ = glGetUniformLocation(mesh_program_, "u_instanced");
+  u_inflate_ = glGetUniformLocation(mesh_program_, "u_inflate");
   u_line_view_proj_ = glGetUniformLocation(line_program_, "u_view_proj");
 
   // The unit sphere (80 triangles: the overlays draw tens of thousands of them) with an instance
@@ -343,11 +346,11 @@ void GlRenderer::set_blend(const Rgba& color) {
   }
 }
 
-void GlRenderer::draw_mesh(const GlMesh& mesh, const Pose& pose, const Rgba& color) {
-  draw_mesh(mesh, pose_matrix(pose), color);
+void GlRenderer::draw_mesh(const GlMesh& mesh, const Pose& pose, const Rgba& color, float inflate) {
+  draw_mesh(mesh, pose_matrix(pose), color, inflate);
 }
 
-void GlRenderer::draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& color) {
+void GlRenderer::draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& color, float inflate) {
   glUseProgram(mesh_program_);
   glUniformMatrix4fv(u_model_, 1, GL_FALSE, model.data());
   glUniformMatrix4fv(u_view_proj_, 1, GL_FALSE, view_proj_.data());
@@ -355,6 +358,7 @@ void GlRenderer::draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& c
   const Vec3f eye = eye_.cast<float>();
   glUniform3fv(u_eye_, 1, eye.data());
   glUniform1i(u_instanced_, 0);
+  glUniform1f(u_inflate_, inflate);
   glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
   set_blend(color);
   mesh.draw();
@@ -371,6 +375,7 @@ void GlRenderer::draw_spheres(std::span<const SphereInstance> spheres, const Pos
   const Vec3f eye = eye_.cast<float>();
   glUniform3fv(u_eye_, 1, eye.data());
   glUniform1i(u_instanced_, 1);
+  glUniform1f(u_inflate_, 0.0f);
   set_blend(color);
   glBindVertexArray(sphere_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, instance_vbo_);

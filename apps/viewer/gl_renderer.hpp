@@ -79,11 +79,12 @@ class GlRenderer {
 
   /// Sets the camera for the draws that follow.
   void begin(const FrameParams& frame);
-  /// Draws a mesh placed by `pose` (object -> world) in a colour; translucent colours blend and do
-  /// not write depth, so draw them after the opaque ones.
-  void draw_mesh(const GlMesh& mesh, const Pose& pose, const Rgba& color);
+  /// Draws a mesh placed by `pose` (object -> world) in a colour, its vertices pushed `inflate` mm out
+  /// along their normals; translucent colours blend and do not write depth, so draw them after the
+  /// opaque ones.
+  void draw_mesh(const GlMesh& mesh, const Pose& pose, const Rgba& color, float inflate = 0.0f);
   /// As above with any object -> world matrix (e.g. a scaled arrow).
-  void draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& color);
+  void draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& color, float inflate = 0.0f);
   /// Draws spheres placed by `pose` (their frame -> world) in one colour.
   void draw_spheres(std::span<const SphereInstance> spheres, const Pose& pose, const Rgba& color);
   /// Draws line segments (pairs of vertices), in world coordinates, over or behind the scene.
@@ -92,7 +93,7 @@ class GlRenderer {
  private:
   void set_blend(const Rgba& color);
   unsigned mesh_program_ = 0, line_program_ = 0;
-  int u_model_ = -1, u_view_proj_ = -1, u_color_ = -1, u_eye_ = -1, u_instanced_ = -1;
+  int u_model_ = -1, u_view_proj_ = -1, u_color_ = -1, u_eye_ = -1, u_instanced_ = -1, u_inflate_ = -1;
   int u_line_view_proj_ = -1;
   unsigned sphere_vao_ = 0, sphere_vbo_ = 0, sphere_ebo_ = 0, instance_vbo_ = 0;
   int sphere_index_count_ = 0;

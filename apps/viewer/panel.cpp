@@ -143,7 +143,7 @@ void ViewerApp::panel_status() {
   if (s.device_info.renders_force)
     ImGui::Text("rendered %.3f N (after force safety)", snapshot_.force.norm());
   else
-    ImGui::TextDisabled("this device renders no force: see the arrow and the plot");
+    ImGui::TextDisabled("renders no force: see the arrow and the plot");
   ImGui::Text("insertion depth %.3f mm   contacts %d", out.depth, out.contacts);
   ImGui::Text("soft tissue %.3f N", out.soft_tissue_force);
   if (settings_.show_lesions && out.lesion >= 0 && static_cast<std::size_t>(out.lesion) < s.shadow.lesions.size())
@@ -197,7 +197,7 @@ void ViewerApp::panel_plots() {
     if (!symmetric) range = std::max(range, peak * 1.1f);
     const std::string overlay = fmt::format("{} {:.3f} {}", label, plot_scratch_.empty() ? 0.0f : plot_scratch_.back(), unit);
     ImGui::PlotLines(fmt::format("##{}", label).c_str(), plot_scratch_.data(), static_cast<int>(plot_scratch_.size()), 0,
-                     overlay.c_str(), symmetric ? -range : 0.0f, range, ImVec2(-1.0f, height));
+                     overlay.c_str(), symmetric ? -range : 0.0f, range, ImVec2(ImGui::GetContentRegionAvail().x, height));
   };
   ImGui::Text("last %.0f s", history_.window());
   plot(ForceHistory::Series::ForceNorm, "|F|", "N", false, 70.0f);

@@ -16,6 +16,7 @@ constexpr Rgba kTunnel{1.00f, 0.90f, 0.20f, 0.30f};
 constexpr Rgba kContactPoint{1.00f, 0.20f, 0.20f, 1.00f};
 constexpr Rgba kContactNormal{1.00f, 0.30f, 0.30f, 1.00f};
 constexpr Rgba kForceArrow{0.95f, 0.25f, 0.15f, 1.00f};
+constexpr float kCariesInflate = 0.08f;  // mm
 
 // Overlay colours of the sphere trees by kind of object.
 Rgba tree_color(const CollisionObject& object) {
@@ -149,12 +150,13 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
   const StepOutput& out = snapshot.out;
   update_dents(snapshot, settings.dents);
 
-  // Opaque: the tissues (hidden caries in their host's colour), the graphic tool, the force arrow.
+  // Opaque: the tissues (hidden caries in their host's colour, a little inflated so that no crack
+  // along the lesion's outline gives it away), the graphic tool, the force arrow.
   for (const Part& part : parts_) {
     const Rgba color = part.object >= 0 ? object_color(part.object, settings)
                                         : tissue_color(part.lesion >= 0 && !settings.show_lesions ? Tissue::Enamel
                                                                                                    : part.tissue);
-    renderer.draw_mesh(part.mesh, Pose{}, color);
+    renderer.draw_mesh(part.mesh, Pose{}, color, part.lesion >= 0 ? kCariesInflate : 0.0f);
   }
   renderer.draw_mesh(tool_mesh_, out.graphic, tool_color());
   const Vec3 force = out.force;

@@ -253,7 +253,9 @@ TEST_P(ViewerXvfb, ScriptedTouchShowsToothToolAndPanel) {
               status.text.at("touched").c_str(), status.text.at("touched_tissue").c_str(), tooth.pixels, tooth.like,
               tooth.background);
   EXPECT_GT(tooth.like, 0.3) << "the " << status.text.at("touched_tissue") << " colour around the tip";
-  if (scene == "oral-cavity") EXPECT_EQ(status.text.at("touched_tissue"), "enamel");
+  if (scene == "oral-cavity") {
+    EXPECT_EQ(status.text.at("touched_tissue"), "enamel");
+  }
 
   // Along the tool: points on its centre line differ from the background.
   int in_view = 0, drawn = 0;
