@@ -22,6 +22,7 @@ struct RunArgs {
   std::string device = "mouse";
   double rate = 0.0;  // Hz; 0 = the scene's servo rate
   std::string record;
+  bool overwrite = false;
   std::string screenshot;
   double exit_after = 0.0;  // s of servo time
   bool show_lesions = false;
@@ -40,6 +41,7 @@ int run_simulator(const RunArgs& args) {
   options.device = args.device;
   options.rate_hz = args.rate;
   options.record = args.record;
+  options.overwrite = args.overwrite;
   options.screenshot = args.screenshot;
   options.exit_after = args.exit_after;
   options.show_lesions = args.show_lesions;
@@ -57,11 +59,15 @@ int run_simulator(const RunArgs& args) {
 void register_run(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<RunArgs>();
   CLI::App* sub = app.add_subcommand("run", "Open the simulator window (the default without a subcommand)");
-  sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
-  sub->add_option("--device", args->device, "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
+  sub->add_option("scene,--scene", args->scene, "Built-in scene name or scene YAML file")
       ->capture_default_str();
-  sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")->check(CLI::Range(1.0, 10000.0));
-  sub->add_option("--record", args->record, "Record the session into this SQLite file");
+  sub->add_option("--device", args->device,
+                  "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
+      ->capture_default_str();
+  sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")
+      ->check(CLI::Range(1.0, 10000.0));
+  auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");
+  sub->add_flag("--overwrite", args->overwrite, "Replace an existing record file")->needs(record);
   auto* exit_after = sub->add_option("--exit-after", args->exit_after,
                                      "Exit after this many seconds of servo time (automation)")
                          ->check(CLI::PositiveNumber);

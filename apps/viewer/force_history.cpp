@@ -16,12 +16,15 @@ void ForceHistory::add(double t, const Vec3& force, const Vec3& torque) {
   // A restarted servo clock starts a new history; repeated snapshots add nothing.
   if (size_ > 0) {
     const double newest = at(size_ - 1).t;
-    if (t < newest) clear();
-    else if (t == newest) return;
+    if (t < newest)
+      clear();
+    else if (t == newest)
+      return;
   }
-  const Sample s{t,
-                 {static_cast<float>(force.norm()), static_cast<float>(force.x()), static_cast<float>(force.y()),
-                  static_cast<float>(force.z()), static_cast<float>(torque.norm())}};
+  const Sample s{
+      t,
+      {static_cast<float>(force.norm()), static_cast<float>(force.x()), static_cast<float>(force.y()),
+       static_cast<float>(force.z()), static_cast<float>(torque.norm())}};
   // Append, overwriting the oldest when full.
   if (size_ < ring_.size()) {
     ring_[(head_ + size_) % ring_.size()] = s;

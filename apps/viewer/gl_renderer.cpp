@@ -113,12 +113,12 @@ GLuint link(const char* vertex, const char* fragment) {
 TriangleMesh make_unit_sphere(int levels) {
   TriangleMesh m;
   const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  const float raw[12][3] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  const float raw[12][3] = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (const auto& v : raw) m.vertices.push_back(Vec3f(v[0], v[1], v[2]).normalized());
-  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},   {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                 {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  m.triangles = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                 {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (int level = 0; level < levels; ++level) {
     std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoints;
     const auto midpoint = [&](uint32_t a, uint32_t b) {
@@ -132,7 +132,8 @@ TriangleMesh make_unit_sphere(int levels) {
     };
     std::vector<std::array<uint32_t, 3>> next;
     for (const auto& tri : m.triangles) {
-      const uint32_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]), ca = midpoint(tri[2], tri[0]);
+      const uint32_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]),
+                     ca = midpoint(tri[2], tri[0]);
       next.push_back({tri[0], ab, ca});
       next.push_back({tri[1], bc, ab});
       next.push_back({tri[2], ca, bc});
@@ -156,7 +157,8 @@ void interleave(std::span<const Vec3f> vertices, std::span<const Vec3f> normals,
 
 }  // namespace
 
-std::vector<Vec3f> vertex_normals(std::span<const Vec3f> vertices, std::span<const std::array<uint32_t, 3>> triangles) {
+std::vector<Vec3f> vertex_normals(std::span<const Vec3f> vertices,
+                                  std::span<const std::array<uint32_t, 3>> triangles) {
   // Sum the (area-weighted) face normals at each corner, then normalise.
   std::vector<Vec3f> normals(vertices.size(), Vec3f::Zero());
   for (const auto& tri : triangles) {
@@ -212,15 +214,16 @@ GlMesh::GlMesh(const TriangleMesh& mesh) : triangles_(mesh.triangles) {
   glGenBuffers(1, &ebo_);
   glBindVertexArray(vao_);
   glBindBuffer(GL_ARRAY_BUFFER, vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved_.size() * sizeof(float)), interleaved_.data(),
-               GL_DYNAMIC_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved_.size() * sizeof(float)),
+               interleaved_.data(), GL_DYNAMIC_DRAW);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo_);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(triangles_.size() * sizeof(triangles_[0])),
                triangles_.data(), GL_STATIC_DRAW);
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
   glEnableVertexAttribArray(1);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                        reinterpret_cast<void*>(3 * sizeof(float)));
   glBindVertexArray(0);
   index_count_ = static_cast<int>(triangles_.size() * 3);
 }
@@ -287,13 +290,16 @@ GlRenderer::GlRenderer() {
   glGenBuffers(1, &instance_vbo_);
   glBindVertexArray(sphere_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, sphere_vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_STATIC_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(),
+               GL_STATIC_DRAW);
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
   glEnableVertexAttribArray(1);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                        reinterpret_cast<void*>(3 * sizeof(float)));
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, sphere_ebo_);
-  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sphere.triangles.size() * sizeof(sphere.triangles[0])),
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+               static_cast<GLsizeiptr>(sphere.triangles.size() * sizeof(sphere.triangles[0])),
                sphere.triangles.data(), GL_STATIC_DRAW);
   glBindBuffer(GL_ARRAY_BUFFER, instance_vbo_);
   glEnableVertexAttribArray(2);
@@ -379,8 +385,8 @@ void GlRenderer::draw_spheres(std::span<const SphereInstance> spheres, const Pos
   set_blend(color);
   glBindVertexArray(sphere_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, instance_vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(spheres.size() * sizeof(SphereInstance)), spheres.data(),
-               GL_STREAM_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(spheres.size() * sizeof(SphereInstance)),
+               spheres.data(), GL_STREAM_DRAW);
   glDrawElementsInstanced(GL_TRIANGLES, sphere_index_count_, GL_UNSIGNED_INT, nullptr,
                           static_cast<GLsizei>(spheres.size()));
   glBindVertexArray(0);
@@ -396,8 +402,8 @@ void GlRenderer::draw_lines(std::span<const LineVertex> vertices, bool on_top) {
   if (on_top) glDisable(GL_DEPTH_TEST);
   glBindVertexArray(line_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(LineVertex)), vertices.data(),
-               GL_STREAM_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(LineVertex)),
+               vertices.data(), GL_STREAM_DRAW);
   glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(vertices.size()));
   glBindVertexArray(0);
   glEnable(GL_DEPTH_TEST);

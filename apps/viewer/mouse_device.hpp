@@ -22,8 +22,8 @@ struct MouseTarget {
 
 /// How fast the device follows its target.
 struct MouseDeviceParams {
-  double max_speed = 150.0;         ///< mm/s, translation of the tool tip
-  double max_angular_speed = 4.0;   ///< rad/s
+  double max_speed = 150.0;        ///< mm/s, translation of the tool tip
+  double max_angular_speed = 4.0;  ///< rad/s
 };
 
 class MouseDevice : public Device {
@@ -63,8 +63,8 @@ class MouseDevice : public Device {
 /// plane, the wheel moves it in depth, right-drag rotates it about its tip.
 class MouseControl {
  public:
-  double wheel_step = 0.5;       ///< mm of depth per wheel notch
-  double rotate_gain = 0.01;     ///< rad per pixel of right-drag
+  double wheel_step = 0.5;    ///< mm of depth per wheel notch
+  double rotate_gain = 0.01;  ///< rad per pixel of right-drag
   Eigen::AlignedBox3d workspace{Vec3(-200, -200, -200), Vec3(200, 200, 200)};  ///< mm, the tip stays inside
 
   /// Sets the target (e.g. the scene's tool home).

@@ -20,10 +20,14 @@ namespace {
 // The state's colour in the readout.
 ImVec4 state_color(InteractionState state) {
   switch (state) {
-    case InteractionState::Free: return {0.70f, 0.70f, 0.70f, 1.0f};
-    case InteractionState::Sliding: return {0.40f, 0.90f, 0.40f, 1.0f};
-    case InteractionState::Inserting: return {1.00f, 0.60f, 0.20f, 1.0f};
-    case InteractionState::Extracting: return {1.00f, 0.90f, 0.30f, 1.0f};
+    case InteractionState::Free:
+      return {0.70f, 0.70f, 0.70f, 1.0f};
+    case InteractionState::Sliding:
+      return {0.40f, 0.90f, 0.40f, 1.0f};
+    case InteractionState::Inserting:
+      return {1.00f, 0.60f, 0.20f, 1.0f};
+    case InteractionState::Extracting:
+      return {1.00f, 0.90f, 0.30f, 1.0f};
   }
   return {1, 1, 1, 1};
 }
@@ -42,10 +46,39 @@ bool slider(const char* label, double& value, double lo, double hi, const char* 
                              log ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None);
 }
 
+// The name of a parameter in "param" events of a record.
+const char* param_field_name(ParamChange::Field field) {
+  using F = ParamChange::Field;
+  switch (field) {
+    case F::MuS:
+      return "mu_s";
+    case F::MuD:
+      return "mu_d";
+    case F::Stiffness:
+      return "stiffness";
+    case F::KE:
+      return "k_e";
+    case F::KC:
+      return "k_c";
+    case F::FPStar:
+      return "f_p_star";
+    case F::FEStar:
+      return "f_e_star";
+    case F::KTheta:
+      return "k_theta";
+    case F::ForceScale:
+      return "force_scale";
+    case F::Preset:
+      return "preset";
+  }
+  return "?";
+}
+
 // 0-255 integer channels of a colour.
 void json_rgb(JsonWriter& json, const Rgba& c) {
   json.begin_array();
-  for (int k = 0; k < 3; ++k) json.value(static_cast<int>(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f)));
+  for (int k = 0; k < 3; ++k)
+    json.value(static_cast<int>(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f)));
   json.end_array();
 }
 
@@ -56,7 +89,8 @@ void ViewerApp::draw_panel() {
   const ImGuiIO& io = ImGui::GetIO();
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - kPanelWidth, 0.0f), ImGuiCond_Always);
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, io.DisplaySize.y), ImGuiCond_Always);
-  ImGui::Begin("cariesim", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  ImGui::Begin("cariesim", nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
   panel_.x = pos.x;
   panel_.y = pos.y;
@@ -84,8 +118,8 @@ void ViewerApp::draw_build_progress() {
   if (!build_) return;
   // A small centred window with the build's stage and progress.
   const ImGuiIO& io = ImGui::GetIO();
-  ImGui::SetNextWindowPos(ImVec2(0.5f * (io.DisplaySize.x - kPanelWidth), 0.5f * io.DisplaySize.y), ImGuiCond_Always,
-                          ImVec2(0.5f, 0.5f));
+  ImGui::SetNextWindowPos(ImVec2(0.5f * (io.DisplaySize.x - kPanelWidth), 0.5f * io.DisplaySize.y),
+                          ImGuiCond_Always, ImVec2(0.5f, 0.5f));
   ImGui::SetNextWindowSize(ImVec2(420.0f, 0.0f), ImGuiCond_Always);
   ImGui::Begin("Building", nullptr,
                ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
@@ -146,7 +180,8 @@ void ViewerApp::panel_status() {
     ImGui::TextDisabled("renders no force: see the arrow and the plot");
   ImGui::Text("insertion depth %.3f mm   contacts %d", out.depth, out.contacts);
   ImGui::Text("soft tissue %.3f N", out.soft_tissue_force);
-  if (settings_.show_lesions && out.lesion >= 0 && static_cast<std::size_t>(out.lesion) < s.shadow.lesions.size())
+  if (settings_.show_lesions && out.lesion >= 0 &&
+      static_cast<std::size_t>(out.lesion) < s.shadow.lesions.size())
     ImGui::Text("lesion: %s", s.shadow.lesions[out.lesion].name.c_str());
   ImGui::Text("step flags: %s", flag_names(out.flags, {{kFlagNonFiniteInput, "non-finite input"},
                                                        {kFlagJumpLimited, "jump"},
@@ -162,20 +197,25 @@ void ViewerApp::panel_status() {
                                                                 {kSafetyStale, "stale input"},
                                                                 {kSafetyNonFinite, "non-finite"},
                                                                 {kSafetyInvalidInput, "no input"}})
-                                 .c_str());
+                                .c_str());
   // The servo loop.
   ImGui::Separator();
   ImGui::Text("servo %.0f Hz (set %.0f)   t %.1f s", snapshot_.rate_hz, s.rate_hz, snapshot_.t);
   ImGui::Text("cycles %llu   overruns %llu", static_cast<unsigned long long>(snapshot_.cycle),
               static_cast<unsigned long long>(snapshot_.overruns));
   ImGui::Text("step  p50 %.1f  p99 %.1f  max %.1f us", timing_.step_p50, timing_.step_p99, timing_.step_max);
-  ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99, timing_.jitter_max);
+  ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99,
+              timing_.jitter_max);
   if (s.servo) ImGui::TextWrapped("priority: %s", s.servo->realtime_status().c_str());
-  if (s.recorder)
+  if (s.recorder) {
+    const RecorderStatus record = s.recorder->status();
     ImGui::Text("recording %s (%llu samples)", options_.record.c_str(),
-                static_cast<unsigned long long>(s.recorder->written()));
+                static_cast<unsigned long long>(record.written));
+    if (!record.ok) ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", record.message.c_str());
+  }
   // Device counters (the UDP bridge's packets).
-  for (const DeviceCounter& c : counters_) ImGui::Text("  %s: %llu", c.name, static_cast<unsigned long long>(c.value));
+  for (const DeviceCounter& c : counters_)
+    ImGui::Text("  %s: %llu", c.name, static_cast<unsigned long long>(c.value));
   // Tool reset and the global force scale.
   ImGui::BeginDisabled(s.recorder != nullptr);
   if (ImGui::Button("Reset tool (R)")) restart_servo();
@@ -189,15 +229,18 @@ void ViewerApp::panel_plots() {
   if (!ImGui::CollapsingHeader("Force and torque", ImGuiTreeNodeFlags_DefaultOpen)) return;
   // The last seconds of snapshots on a uniform grid.
   constexpr int kPoints = 240;
-  const auto plot = [&](ForceHistory::Series series, const char* label, const char* unit, bool symmetric, float height) {
+  const auto plot = [&](ForceHistory::Series series, const char* label, const char* unit, bool symmetric,
+                        float height) {
     history_.resample(series, kPoints, plot_scratch_);
     const float peak = std::max(history_.max_in_window(series), 0.0f);
     float range = 1.0f;
     for (const float v : plot_scratch_) range = std::max(range, std::abs(v) * 1.1f);
     if (!symmetric) range = std::max(range, peak * 1.1f);
-    const std::string overlay = fmt::format("{} {:.3f} {}", label, plot_scratch_.empty() ? 0.0f : plot_scratch_.back(), unit);
-    ImGui::PlotLines(fmt::format("##{}", label).c_str(), plot_scratch_.data(), static_cast<int>(plot_scratch_.size()), 0,
-                     overlay.c_str(), symmetric ? -range : 0.0f, range, ImVec2(ImGui::GetContentRegionAvail().x, height));
+    const std::string overlay =
+        fmt::format("{} {:.3f} {}", label, plot_scratch_.empty() ? 0.0f : plot_scratch_.back(), unit);
+    ImGui::PlotLines(fmt::format("##{}", label).c_str(), plot_scratch_.data(),
+                     static_cast<int>(plot_scratch_.size()), 0, overlay.c_str(), symmetric ? -range : 0.0f,
+                     range, ImVec2(ImGui::GetContentRegionAvail().x, height));
   };
   ImGui::Text("last %.0f s", history_.window());
   plot(ForceHistory::Series::ForceNorm, "|F|", "N", false, 70.0f);
@@ -260,17 +303,19 @@ void ViewerApp::panel_lesion() {
   const auto lesion = static_cast<int16_t>(panel_.lesion);
   const Material& m = s.shadow.materials[s.shadow.lesions[panel_.lesion].material];
   using F = ParamChange::Field;
-  const auto edit = [&](const char* label, F field, double value, double lo, double hi, const char* format, bool log) {
+  const auto edit = [&](const char* label, F field, double value, double lo, double hi, const char* format,
+                        bool log) {
     if (slider(label, value, lo, hi, format, log)) post(ParamChange{field, lesion, value});
   };
   edit("mu_s", F::MuS, m.mu_s, 0.0, 1.5, "%.3f", false);
   edit("mu_d", F::MuD, m.mu_d, 0.0, 1.5, "%.3f", false);
   edit("k_e (N/mm)", F::KE, m.k_e, 0.05, 5.0, "%.3f", true);
-  edit(m.k_c.kind == KcProfile::Kind::Constant ? "k_c (N/mm)" : "k_c (N/mm, layered)", F::KC, m.k_c.at(0.0), 0.05, 20.0,
-       "%.3f", true);
+  edit(m.k_c.kind == KcProfile::Kind::Constant ? "k_c (N/mm)" : "k_c (N/mm, layered)", F::KC, m.k_c.at(0.0),
+       0.05, 20.0, "%.3f", true);
   edit("F_p* (N)", F::FPStar, m.f_p_star, 0.1, 20.0, "%.2f", true);
   edit("F_e* (N)", F::FEStar, m.f_e_star, 0.1, 20.0, "%.2f", true);
-  edit("stiffness (N/mm)", F::Stiffness, std::isfinite(m.stiffness) ? m.stiffness : 5.0, 0.05, 5.0, "%.3f", true);
+  edit("stiffness (N/mm)", F::Stiffness, std::isfinite(m.stiffness) ? m.stiffness : 5.0, 0.05, 5.0, "%.3f",
+       true);
   if (ImGui::Button("Mild preset")) post(ParamChange{F::Preset, lesion, 0.0});
   ImGui::SameLine();
   if (ImGui::Button("Severe preset")) post(ParamChange{F::Preset, lesion, 1.0});
@@ -299,19 +344,32 @@ void ViewerApp::post(const ParamChange& change) {
     return;
   }
   apply_param_change(session_->shadow, change);
+  // A recorded session notes the change as a "param" event at the servo time the UI last saw.
+  if (session_->recorder) {
+    RecordedEvent event;
+    event.t = snapshot_.t;
+    event.kind = "param";
+    event.detail = param_field_name(change.field);
+    event.value = change.value;
+    event.lesion = change.lesion;
+    session_->recorder->record_event(event);
+  }
 }
 
 void ViewerApp::save_scene() {
   Session& s = *session_;
   // Every lesion's material as the panel holds it.
   std::vector<LesionMaterialEdit> edits;
-  for (const LesionModel& lesion : s.shadow.lesions) edits.push_back({lesion.name, s.shadow.materials[lesion.material]});
+  for (const LesionModel& lesion : s.shadow.lesions)
+    edits.push_back({lesion.name, s.shadow.materials[lesion.material]});
   const bool builtin = !builtin_scene_yaml(s.source).empty();
-  const std::filesystem::path target = builtin ? std::filesystem::path(panel_.save_path) : std::filesystem::path(s.source);
+  const std::filesystem::path target =
+      builtin ? std::filesystem::path(panel_.save_path) : std::filesystem::path(s.source);
   try {
     const std::filesystem::path backup = save_lesion_materials(s.source, target, edits);
-    panel_.message = fmt::format("Saved the lesion parameters to {}; comments are not kept{}.", target.string(),
-                                 backup.empty() ? "" : fmt::format(" (the previous file is {})", backup.string()));
+    panel_.message =
+        fmt::format("Saved the lesion parameters to {}; comments are not kept{}.", target.string(),
+                    backup.empty() ? "" : fmt::format(" (the previous file is {})", backup.string()));
     panel_.message_is_error = false;
   } catch (const Error& e) {
     panel_.message = e.what();
@@ -351,20 +409,30 @@ std::string ViewerApp::status_json(int width, int height) const {
   json_rgb(json, tool_color());
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
   json.key("panel").begin_object();
-  json.field("x", static_cast<double>(panel_.x * scale.x)).field("y", static_cast<double>(panel_.y * scale.y));
-  json.field("w", static_cast<double>(panel_.w * scale.x)).field("h", static_cast<double>(panel_.h * scale.y));
+  json.field("x", static_cast<double>(panel_.x * scale.x))
+      .field("y", static_cast<double>(panel_.y * scale.y));
+  json.field("w", static_cast<double>(panel_.w * scale.x))
+      .field("h", static_cast<double>(panel_.h * scale.y));
   json.end_object();
-  json.key("view").begin_object().field("x", 0).field("y", 0).field("w", view_width_).field("h", height).end_object();
+  json.key("view")
+      .begin_object()
+      .field("x", 0)
+      .field("y", 0)
+      .field("w", view_width_)
+      .field("h", height)
+      .end_object();
 
   // The tool tip and points along the tool in the image, when in the view.
   const auto pixel = [&](const Vec3& world, Eigen::Vector2d& px) {
-    return camera_.project(world, view_width_, height, px) && px.x() >= 0 && px.x() < view_width_ && px.y() >= 0 &&
-           px.y() < height;
+    return camera_.project(world, view_width_, height, px) && px.x() >= 0 && px.x() < view_width_ &&
+           px.y() >= 0 && px.y() < height;
   };
   Eigen::Vector2d px;
   json.key("tip");
-  if (pixel(out.graphic.p, px)) json.begin_array().value(px.x()).value(px.y()).end_array();
-  else json.null();
+  if (pixel(out.graphic.p, px))
+    json.begin_array().value(px.x()).value(px.y()).end_array();
+  else
+    json.null();
   json.key("tool_points").begin_array();
   if (session_)
     for (const Vec3& local : session_->view->tool_axis_points())
@@ -376,7 +444,8 @@ std::string ViewerApp::status_json(int width, int height) const {
   const int count = std::clamp(out.contact_report_count, 0, kMaxReportedContacts);
   const ContactReport* strongest = nullptr;
   for (int i = 0; i < count; ++i)
-    if (strongest == nullptr || out.contact_reports[i].force > strongest->force) strongest = &out.contact_reports[i];
+    if (strongest == nullptr || out.contact_reports[i].force > strongest->force)
+      strongest = &out.contact_reports[i];
   if (session_ && strongest != nullptr && strongest->object < session_->model->objects.size()) {
     const int object = strongest->object;
     json.begin_object();

@@ -26,18 +26,26 @@ Rgba tree_color(const CollisionObject& object) {
 }
 
 // The rotation taking +z onto a direction.
-Quat rotation_to(const Vec3& direction) { return Quat::FromTwoVectors(Vec3::UnitZ(), direction.normalized()); }
+Quat rotation_to(const Vec3& direction) {
+  return Quat::FromTwoVectors(Vec3::UnitZ(), direction.normalized());
+}
 
 }  // namespace
 
 Rgba tissue_color(Tissue tissue) {
   switch (tissue) {
-    case Tissue::Enamel: return {0.93f, 0.89f, 0.78f, 1.0f};
-    case Tissue::Dentin: return {0.90f, 0.80f, 0.58f, 1.0f};
-    case Tissue::Caries: return {0.42f, 0.25f, 0.10f, 1.0f};
-    case Tissue::Gingiva: return {0.86f, 0.44f, 0.50f, 1.0f};
-    case Tissue::Tongue: return {0.78f, 0.36f, 0.40f, 1.0f};
-    case Tissue::Generic: return {0.60f, 0.70f, 0.86f, 1.0f};
+    case Tissue::Enamel:
+      return {0.93f, 0.89f, 0.78f, 1.0f};
+    case Tissue::Dentin:
+      return {0.90f, 0.80f, 0.58f, 1.0f};
+    case Tissue::Caries:
+      return {0.42f, 0.25f, 0.10f, 1.0f};
+    case Tissue::Gingiva:
+      return {0.86f, 0.44f, 0.50f, 1.0f};
+    case Tissue::Tongue:
+      return {0.78f, 0.36f, 0.40f, 1.0f};
+    case Tissue::Generic:
+      return {0.60f, 0.70f, 0.86f, 1.0f};
   }
   return {0.7f, 0.7f, 0.7f, 1.0f};
 }
@@ -57,10 +65,12 @@ SceneView::SceneView(const Model& model) : model_(model) {
   for (std::size_t o = 0; o < n; ++o) {
     const CollisionObject& object = model.objects[o];
     host_tissue_[o] = own_tissue_[o];
-    if (object.host >= 0 && static_cast<std::size_t>(object.host) < n) host_tissue_[o] = own_tissue_[object.host];
+    if (object.host >= 0 && static_cast<std::size_t>(object.host) < n)
+      host_tissue_[o] = own_tissue_[object.host];
     if (object.kind == ObjectKind::Soft && !object.tree.leaf_nodes.empty()) {
       const SphereNode& leaf = object.tree.nodes[object.tree.leaf_nodes.front()];
-      if (leaf.material < model.materials.size()) soft_stiffness_[o] = model.materials[leaf.material].stiffness;
+      if (leaf.material < model.materials.size())
+        soft_stiffness_[o] = model.materials[leaf.material].stiffness;
     }
   }
 
@@ -71,7 +81,8 @@ SceneView::SceneView(const Model& model) : model_(model) {
     p.tissue = part.tissue;
     p.lesion = part.lesion;
     p.object = part.object;
-    p.soft = part.object >= 0 && static_cast<std::size_t>(part.object) < n && soft_stiffness_[part.object] > 0.0;
+    p.soft =
+        part.object >= 0 && static_cast<std::size_t>(part.object) < n && soft_stiffness_[part.object] > 0.0;
     if (p.soft) p.base = part.mesh.vertices;
     bounds_.extend(part.mesh.bounds());
     parts_.push_back(std::move(p));
@@ -84,7 +95,8 @@ SceneView::SceneView(const Model& model) : model_(model) {
   levels_.push_back(node_levels(model.tool.tree));
   cuts_.resize(levels_.size());
   for (const auto& levels : levels_)
-    if (!levels.empty()) max_level_ = std::max(max_level_, static_cast<int>(*std::max_element(levels.begin(), levels.end())));
+    if (!levels.empty())
+      max_level_ = std::max(max_level_, static_cast<int>(*std::max_element(levels.begin(), levels.end())));
 
   // Points every ~10 mm along the tool's centre line (from its sphere chain, tip first).
   const std::vector<ToolSphere> chain = make_explorer_spheres(model.tool.params, 0.05);
@@ -153,9 +165,10 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
   // Opaque: the tissues (hidden caries in their host's colour, a little inflated so that no crack
   // along the lesion's outline gives it away), the graphic tool, the force arrow.
   for (const Part& part : parts_) {
-    const Rgba color = part.object >= 0 ? object_color(part.object, settings)
-                                        : tissue_color(part.lesion >= 0 && !settings.show_lesions ? Tissue::Enamel
-                                                                                                   : part.tissue);
+    const Rgba color =
+        part.object >= 0
+            ? object_color(part.object, settings)
+            : tissue_color(part.lesion >= 0 && !settings.show_lesions ? Tissue::Enamel : part.tissue);
     renderer.draw_mesh(part.mesh, Pose{}, color, part.lesion >= 0 ? kCariesInflate : 0.0f);
   }
   renderer.draw_mesh(tool_mesh_, out.graphic, tool_color());
@@ -171,7 +184,8 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
     const int count = std::clamp(out.contact_report_count, 0, kMaxReportedContacts);
     for (int i = 0; i < count; ++i) {
       const Vec3& p = out.contact_reports[i].point;
-      points.push_back({{static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())}, 0.12f});
+      points.push_back(
+          {{static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())}, 0.12f});
     }
     renderer.draw_spheres(points, Pose{}, kContactPoint);
   }
@@ -184,8 +198,8 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
         renderer.draw_spheres(tree_spheres(static_cast<int>(o), settings.tree_level), Pose{},
                               tree_color(model_.objects[o]));
     if (tool || settings.tree_object == -1)
-      renderer.draw_spheres(tree_spheres(static_cast<int>(model_.objects.size()), settings.tree_level), out.graphic,
-                            {0.7f, 0.9f, 0.4f, 0.35f});
+      renderer.draw_spheres(tree_spheres(static_cast<int>(model_.objects.size()), settings.tree_level),
+                            out.graphic, {0.7f, 0.9f, 0.4f, 0.35f});
   }
   if (settings.tunnel && out.tunnel.active) {
     std::vector<SphereInstance> spheres;
@@ -196,8 +210,10 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
     }
     renderer.draw_spheres(spheres, Pose{}, kTunnel);
   }
-  const bool apart = (out.haptic.p - out.graphic.p).norm() > 0.02 || out.haptic.q.angularDistance(out.graphic.q) > 0.005;
-  if (settings.haptic_ghost && apart && out.haptic.finite()) renderer.draw_mesh(tool_mesh_, out.haptic, kHapticGhost);
+  const bool apart =
+      (out.haptic.p - out.graphic.p).norm() > 0.02 || out.haptic.q.angularDistance(out.graphic.q) > 0.005;
+  if (settings.haptic_ghost && apart && out.haptic.finite())
+    renderer.draw_mesh(tool_mesh_, out.haptic, kHapticGhost);
   if (settings.recorded_ghost && recorded && recorded->finite())
     renderer.draw_mesh(tool_mesh_, *recorded, kRecordedGhost);
 

@@ -11,27 +11,27 @@
 #include <string>
 #include <vector>
 
-#include "gl_renderer.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/servo/servo.hpp"
+#include "gl_renderer.hpp"
 #include "soft_dent.hpp"
 
 namespace cariesim::viewer {
 
 /// The overlay and display toggles of the panel.
 struct ViewSettings {
-  bool show_lesions = false;     ///< caries drawn in caries colour (hidden: in the healthy colour)
-  bool haptic_ghost = true;      ///< the haptic tool as a translucent ghost
-  bool recorded_ghost = true;    ///< a replay's recorded (graphic) tool as a second ghost
-  bool contacts = false;         ///< contact points and normals scaled by force
-  bool tunnel = true;            ///< the five virtual-tunnel spheres while penetrating
-  bool force_arrow = true;       ///< the force as an arrow at the tool tip
-  bool dents = true;             ///< soft tissue dents
-  bool trees = false;            ///< sphere trees at `tree_level`
-  int tree_level = 4;            ///< level of the tree cut shown (0 = root)
-  int tree_object = -1;          ///< -1: every object, -2: the tool, else a Model::objects index
-  float arrow_mm_per_newton = 8.0f;  ///< mm of arrow per N of force
-  float normal_mm_per_newton = 4.0f; ///< mm of contact normal per N of contact force
+  bool show_lesions = false;          ///< caries drawn in caries colour (hidden: in the healthy colour)
+  bool haptic_ghost = true;           ///< the haptic tool as a translucent ghost
+  bool recorded_ghost = true;         ///< a replay's recorded (graphic) tool as a second ghost
+  bool contacts = false;              ///< contact points and normals scaled by force
+  bool tunnel = true;                 ///< the five virtual-tunnel spheres while penetrating
+  bool force_arrow = true;            ///< the force as an arrow at the tool tip
+  bool dents = true;                  ///< soft tissue dents
+  bool trees = false;                 ///< sphere trees at `tree_level`
+  int tree_level = 4;                 ///< level of the tree cut shown (0 = root)
+  int tree_object = -1;               ///< -1: every object, -2: the tool, else a Model::objects index
+  float arrow_mm_per_newton = 8.0f;   ///< mm of arrow per N of force
+  float normal_mm_per_newton = 4.0f;  ///< mm of contact normal per N of contact force
 };
 
 /// Tissue colours (linear RGB, opaque).
@@ -70,8 +70,8 @@ class SceneView {
     int lesion = -1;
     int object = -1;
     bool soft = false;
-    std::vector<Vec3f> base;     // undeformed vertices (soft parts)
-    std::vector<Vec3f> dented;   // scratch
+    std::vector<Vec3f> base;    // undeformed vertices (soft parts)
+    std::vector<Vec3f> dented;  // scratch
     bool was_dented = false;
   };
   struct TreeCut {
@@ -83,9 +83,9 @@ class SceneView {
 
   const Model& model_;
   std::vector<Part> parts_;
-  std::vector<double> soft_stiffness_;   // per object, N/mm (0 for rigid)
-  std::vector<Tissue> host_tissue_;      // per object: the tissue drawn for hidden caries
-  std::vector<Tissue> own_tissue_;       // per object: its display tissue
+  std::vector<double> soft_stiffness_;  // per object, N/mm (0 for rigid)
+  std::vector<Tissue> host_tissue_;     // per object: the tissue drawn for hidden caries
+  std::vector<Tissue> own_tissue_;      // per object: its display tissue
   GlMesh tool_mesh_, arrow_mesh_;
   std::vector<std::vector<uint8_t>> levels_;  // per object, then the tool last
   std::vector<TreeCut> cuts_;                 // per object, then the tool last

@@ -28,7 +28,8 @@ Image read_framebuffer(int width, int height) {
 }
 
 void write_png(const Image& image, const std::filesystem::path& file) {
-  if (image.width <= 0 || image.height <= 0 || image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
+  if (image.width <= 0 || image.height <= 0 ||
+      image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
     throw Error(file.string() + ": no image to write");
   std::error_code ec;
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);

@@ -10,9 +10,9 @@ namespace cariesim::viewer {
 
 /// An RGB image, rows from the top.
 struct Image {
-  int width = 0;              ///< px
-  int height = 0;             ///< px
-  std::vector<uint8_t> rgb;   ///< width * height * 3 bytes
+  int width = 0;             ///< px
+  int height = 0;            ///< px
+  std::vector<uint8_t> rgb;  ///< width * height * 3 bytes
 };
 
 /// Reads the current GL read buffer (the back buffer after drawing) into an image (top row first).

@@ -9,7 +9,8 @@ double dent_radius(double depth) { return 1.0 + 4.0 * std::max(depth, 0.0); }
 
 bool dent_from_contact(const ContactReport& contact, double stiffness, Dent& out) {
   // Only compliant tissue with a finite, positive spring and a positive load dents.
-  if (!(stiffness > 0.0) || !std::isfinite(stiffness) || !(contact.force > 0.0) || !std::isfinite(contact.force))
+  if (!(stiffness > 0.0) || !std::isfinite(stiffness) || !(contact.force > 0.0) ||
+      !std::isfinite(contact.force))
     return false;
   const double n = contact.normal.norm();
   if (!(n > 1e-9) || !contact.point.allFinite()) return false;

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 
@@ -68,7 +69,8 @@ std::string headless_message() {
          "session).\n"
          "On a headless machine run it under a virtual X server, for example:\n"
          "  xvfb-run -a -s \"-screen 0 1280x800x24\" cariesim run --screenshot run.png --exit-after 5\n"
-         "(xvfb-run is in Debian's xvfb package; scripts/run does this by itself when there is no display).\n";
+         "(xvfb-run is in Debian's xvfb package; scripts/run does this by itself when there is no "
+         "display).\n";
 }
 
 Session::~Session() { stop(); }
@@ -79,12 +81,17 @@ void Session::stop() {
 }
 
 ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
-  // Bad input fails before any window opens: the scene must parse, the device spec must make a device.
+  // Bad input fails before any window opens: the scene must parse, the device spec must make a device,
+  // an existing record file needs --overwrite.
   (void)load_scene(options_.scene);
+  if (!options_.record.empty() && !options_.overwrite && std::filesystem::exists(options_.record))
+    throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
   if (options_.device != "mouse") {
     const std::string_view spec(options_.device);
-    if (spec.starts_with("replay:")) (void)make_replay_device(std::string(spec.substr(7)));
-    else (void)make_device(options_.device);
+    if (spec.starts_with("replay:"))
+      (void)make_replay_device(std::string(spec.substr(7)));
+    else
+      (void)make_device(options_.device);
   }
   settings_.show_lesions = options_.show_lesions;
 }
@@ -155,7 +162,8 @@ void ViewerApp::poll_build() {
   std::unique_ptr<PendingBuild> done = std::move(build_);
   try {
     std::unique_ptr<Model> model = done->result.get();
-    std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(), model->objects.size());
+    std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
+                 model->objects.size());
     start_session(std::move(model), done->source);
   } catch (const Error& e) {
     if (!session_) throw;
@@ -222,7 +230,9 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     info.rate_hz = s->rate_hz;
     info.parameters = parameters_json(*s->model);
     info.started_at = utc_now();
-    s->recorder = std::make_unique<Recorder>(options_.record, info);
+    RecorderOptions record_options;
+    record_options.overwrite = options_.overwrite;
+    s->recorder = std::make_unique<Recorder>(options_.record, info, record_options);
     s->recorder->start();
     record_used_ = true;
   } else if (record_used_) {
@@ -235,6 +245,9 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   control_.reset(s->model->tool_home);
   control_.workspace = s->model->limits.workspace;
   panel_.lesion = 0;
+  const std::vector<std::string> names = builtin_scene_names();
+  const auto builtin = std::find(names.begin(), names.end(), source);
+  if (builtin != names.end()) panel_.builtin = static_cast<int>(builtin - names.begin());
   session_ = std::move(s);
   restart_servo();
 }
@@ -272,7 +285,8 @@ void ViewerApp::handle_input() {
 
     // The mouse device: left-drag moves the tool in the view plane, the wheel in depth, right-drag turns it.
     if (have_mouse) {
-      if (!orbit && io.MouseDown[0] && std::isfinite(dx)) control_.drag_move(dx, dy, camera_, io.DisplaySize.y);
+      if (!orbit && io.MouseDown[0] && std::isfinite(dx))
+        control_.drag_move(dx, dy, camera_, io.DisplaySize.y);
       if (io.MouseDown[1] && std::isfinite(dx)) control_.drag_rotate(dx, dy, camera_);
       if (io.MouseWheel != 0.0f && !io.KeyCtrl) control_.wheel(io.MouseWheel, camera_, io.KeyShift);
       session_->mouse->set_target(control_.target());
@@ -380,17 +394,18 @@ void ViewerApp::print_summary() const {
   const StepOutput& out = snapshot_.out;
   std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(), options_.device.c_str(),
               session_->rate_hz);
-  std::printf("state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
-              state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
-              out.contacts, snapshot_.t);
+  std::printf(
+      "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
+      state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
+      out.contacts, snapshot_.t);
   std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),
               session_->servo ? session_->servo->realtime_status().c_str() : "-");
-  std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50, timing_.step_p99,
-              timing_.step_p999, timing_.step_max);
-  std::printf("jitter (us):    p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.jitter_p50, timing_.jitter_p99,
-              timing_.jitter_p999, timing_.jitter_max);
+  std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50,
+              timing_.step_p99, timing_.step_p999, timing_.step_max);
+  std::printf("jitter (us):    p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.jitter_p50,
+              timing_.jitter_p99, timing_.jitter_p999, timing_.jitter_max);
   if (!options_.screenshot.empty())
     std::printf("screenshot: %s (status: %s)\n", options_.screenshot.c_str(),
                 status_path(options_.screenshot).string().c_str());

@@ -12,6 +12,7 @@ struct ViewerOptions {
   std::string device = "mouse";       ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
   double rate_hz = 0.0;               ///< Hz, servo rate; 0: the scene's
   std::string record;                 ///< SQLite file for the session record; empty: none
+  bool overwrite = false;             ///< replace an existing record file (otherwise it is an error)
   std::string screenshot;             ///< PNG written after `exit_after`; empty: none
   double exit_after = 0.0;            ///< s of servo time after which the viewer exits; 0: never
   bool show_lesions = false;          ///< start with the lesions revealed (hidden is a trial's default)

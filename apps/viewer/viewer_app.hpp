@@ -31,7 +31,7 @@ namespace cariesim::viewer {
 /// A model being simulated: its device, the servo loop, the record, and what the panel mirrors.
 /// Members are declared so that destruction stops the loop before the device and the model go.
 struct Session {
-  std::string source;              ///< scene name or file it was built from
+  std::string source;  ///< scene name or file it was built from
   std::unique_ptr<Model> model;
   std::unique_ptr<Device> device;
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
@@ -60,13 +60,13 @@ struct PendingBuild {
 
 /// What the panel keeps between frames.
 struct PanelState {
-  int lesion = 0;              ///< selected lesion
-  int builtin = 0;             ///< selected built-in scene
-  std::string scene_path;      ///< the scene-file text field
-  std::string save_path;       ///< where a built-in scene is saved
-  std::string message;         ///< the last action's outcome
+  int lesion = 0;          ///< selected lesion
+  int builtin = 0;         ///< selected built-in scene
+  std::string scene_path;  ///< the scene-file text field
+  std::string save_path;   ///< where a built-in scene is saved
+  std::string message;     ///< the last action's outcome
   bool message_is_error = false;
-  float force_scale = 1.0f;    ///< global force scale, in [0, 1]
+  float force_scale = 1.0f;          ///< global force scale, in [0, 1]
   float x = 0, y = 0, w = 0, h = 0;  ///< px, where the panel window was drawn last
 };
 

@@ -76,7 +76,8 @@ std::string set_lesion_materials(std::string_view yaml, const std::filesystem::p
   try {
     root = YAML::Load(std::string(yaml));
   } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}:{}:{}: not valid YAML: {}", origin.string(), e.mark.line + 1, e.mark.column + 1, e.msg));
+    throw Error(fmt::format("{}:{}:{}: not valid YAML: {}", origin.string(), e.mark.line + 1,
+                            e.mark.column + 1, e.msg));
   }
   const YAML::Node lesions = root.IsMap() ? root["lesions"] : YAML::Node();
   // Each edit goes to the lesion of its name.
@@ -94,7 +95,8 @@ std::string set_lesion_materials(std::string_view yaml, const std::filesystem::p
   // Emit and make sure the result is still a valid scene.
   YAML::Emitter out;
   out << root;
-  if (!out.good()) throw Error(fmt::format("{}: cannot write the scene: {}", origin.string(), out.GetLastError()));
+  if (!out.good())
+    throw Error(fmt::format("{}: cannot write the scene: {}", origin.string(), out.GetLastError()));
   std::string text = std::string(out.c_str()) + "\n";
   parse_scene(text, origin);
   return text;

@@ -82,7 +82,8 @@ TEST(SaveLesionMaterials, LayeredProfileAndUntouchedLesions) {
   const Material& back = lesion_material(after, "lesion1");
   EXPECT_EQ(back.k_c.kind, KcProfile::Kind::Layers);
   EXPECT_EQ(back.k_c.layer_count, m.k_c.layer_count);
-  for (const double depth : {0.5, 1.0, 2.0, 2.4}) EXPECT_DOUBLE_EQ(back.k_c.at(depth), m.k_c.at(depth)) << depth;
+  for (const double depth : {0.5, 1.0, 2.0, 2.4})
+    EXPECT_DOUBLE_EQ(back.k_c.at(depth), m.k_c.at(depth)) << depth;
   EXPECT_DOUBLE_EQ(back.mu_s, 0.3);
   const Material& other = lesion_material(after, "lesion3");
   const Material& other_before = lesion_material(before, "lesion3");
@@ -93,14 +94,23 @@ TEST(SaveLesionMaterials, LayeredProfileAndUntouchedLesions) {
 // Unknown lesions, broken YAML and values the parser rejects are errors naming the file.
 TEST(SaveLesionMaterials, ErrorsNameTheFile) {
   const std::string yaml(cariesim::builtin_scene_yaml("friction-block"));
-  EXPECT_THAT([&] { cariesim::set_lesion_materials(yaml, "a.yaml", {{"nope", Material{}}}); },
-              ::testing::ThrowsMessage<Error>(HasSubstr("a.yaml: no lesion named 'nope'")));
-  EXPECT_THAT([&] { cariesim::set_lesion_materials("lesions: [", "b.yaml", {{"x", Material{}}}); },
-              ::testing::ThrowsMessage<Error>(HasSubstr("b.yaml:")));
+  EXPECT_THAT(
+      [&] {
+        cariesim::set_lesion_materials(yaml, "a.yaml", {{"nope", Material{}}});
+      },
+      ::testing::ThrowsMessage<Error>(HasSubstr("a.yaml: no lesion named 'nope'")));
+  EXPECT_THAT(
+      [&] {
+        cariesim::set_lesion_materials("lesions: [", "b.yaml", {{"x", Material{}}});
+      },
+      ::testing::ThrowsMessage<Error>(HasSubstr("b.yaml:")));
   Material bad;
   bad.mu_s = 50.0;  // above the parser's limit
-  EXPECT_THAT([&] { cariesim::set_lesion_materials(yaml, "c.yaml", {{"top", bad}}); },
-              ::testing::ThrowsMessage<Error>(HasSubstr("c.yaml")));
+  EXPECT_THAT(
+      [&] {
+        cariesim::set_lesion_materials(yaml, "c.yaml", {{"top", bad}});
+      },
+      ::testing::ThrowsMessage<Error>(HasSubstr("c.yaml")));
 }
 
 // Files: a built-in scene goes to a new file; saving over a file keeps the old one as .bak.

@@ -1,9 +1,9 @@
 // The orbit camera (apps/viewer/camera.cpp): framing, projection, screen axes, limits.
+#include "viewer/camera.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "viewer/camera.hpp"
 
 namespace {
 
@@ -67,7 +67,8 @@ TEST(OrbitCamera, FrameFillsTheViewWithTheBox) {
   Eigen::AlignedBox2d extent;
   for (int i = 0; i < 8; ++i) {
     Eigen::Vector2d px;
-    ASSERT_TRUE(camera.project(box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(i)), 800.0, 800.0, px));
+    ASSERT_TRUE(
+        camera.project(box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(i)), 800.0, 800.0, px));
     extent.extend(px);
   }
   EXPECT_GT(extent.sizes().maxCoeff(), 400.0);

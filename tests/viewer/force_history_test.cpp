@@ -1,9 +1,9 @@
 // The plot's history (apps/viewer/force_history.cpp): resampling, restarts, the ring's capacity.
+#include "viewer/force_history.hpp"
+
 #include <gtest/gtest.h>
 
 #include <vector>
-
-#include "viewer/force_history.hpp"
 
 namespace {
 

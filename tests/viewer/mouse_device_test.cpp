@@ -1,12 +1,12 @@
 // The mouse device (apps/viewer/mouse_device.cpp): the lock-free hand-off from the UI thread, the
 // bounded following speed, jumps, and the gesture mapping of MouseControl.
+#include "viewer/mouse_device.hpp"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <cmath>
 #include <thread>
-
-#include "viewer/mouse_device.hpp"
 
 namespace {
 

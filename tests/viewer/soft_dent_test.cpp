@@ -1,12 +1,12 @@
 // Soft-tissue dents (apps/viewer/soft_dent.cpp): penetration from a compliant contact's force, the
 // displacement profile, and what is left alone.
+#include "viewer/soft_dent.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <vector>
-
-#include "viewer/soft_dent.hpp"
 
 namespace {
 
@@ -39,7 +39,8 @@ TEST(SoftDent, PenetrationIsForceOverStiffness) {
 // Rigid tissue, no load, and garbage make no dent.
 TEST(SoftDent, NoDentWithoutACompliantLoad) {
   Dent d;
-  EXPECT_FALSE(dent_from_contact(contact(Vec3::Zero(), Vec3::UnitZ(), 1.0), std::numeric_limits<double>::infinity(), d));
+  EXPECT_FALSE(dent_from_contact(contact(Vec3::Zero(), Vec3::UnitZ(), 1.0),
+                                 std::numeric_limits<double>::infinity(), d));
   EXPECT_FALSE(dent_from_contact(contact(Vec3::Zero(), Vec3::UnitZ(), 0.0), 0.3, d));
   EXPECT_FALSE(dent_from_contact(contact(Vec3::Zero(), Vec3::UnitZ(), std::nan("")), 0.3, d));
   EXPECT_FALSE(dent_from_contact(contact(Vec3::Zero(), Vec3::Zero(), 1.0), 0.3, d));

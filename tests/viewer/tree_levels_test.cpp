@@ -1,10 +1,11 @@
 // Sphere trees by level (apps/viewer/tree_levels.cpp) on a hand-made tree and on a built one.
+#include "viewer/tree_levels.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 
 #include "cariesim/scene/scene.hpp"
-#include "viewer/tree_levels.hpp"
 
 namespace {
 
@@ -49,7 +50,8 @@ TEST(TreeLevels, AgreesWithABuiltTree) {
   const auto levels = node_levels(tree);
   const auto per_level = tree.nodes_per_level();
   for (std::size_t l = 0; l < per_level.size(); ++l)
-    EXPECT_EQ(static_cast<std::size_t>(std::count(levels.begin(), levels.end(), static_cast<uint8_t>(l))), per_level[l])
+    EXPECT_EQ(static_cast<std::size_t>(std::count(levels.begin(), levels.end(), static_cast<uint8_t>(l))),
+              per_level[l])
         << "level " << l;
   EXPECT_EQ(level_cut(tree, levels, tree.levels).size(), tree.leaf_count());
 }
