@@ -275,7 +275,7 @@ TEST_P(ViewerXvfb, ScriptedTouchShowsToothToolAndPanel) {
     if (s.background < 0.9) ++drawn;
   }
   std::printf("[%s] tool: %d of %d centre-line points in view are drawn\n", scene.c_str(), drawn, in_view);
-  EXPECT_GE(in_view, 3);
+  EXPECT_GE(in_view, 2) << "the tip and at least 10 mm of the tool are in view";
   EXPECT_GE(drawn, (in_view * 3 + 3) / 4);
 }
 
