@@ -314,7 +314,7 @@ void ViewerApp::panel_lesion() {
        0.05, 20.0, "%.3f", true);
   edit("F_p* (N)", F::FPStar, m.f_p_star, 0.1, 20.0, "%.2f", true);
   edit("F_e* (N)", F::FEStar, m.f_e_star, 0.1, 20.0, "%.2f", true);
-  edit("stiffness (N/mm)", F::Stiffness, std::isfinite(m.stiffness) ? m.stiffness : 5.0, 0.05, 5.0, "%.3f",
+  edit("stiffness (N/mm)", F::Stiffness, std::isfinite(m.stiffness) ? m.stiffness : 10.0, 0.05, 50.0, "%.3f",
        true);
   if (ImGui::Button("Mild preset")) post(ParamChange{F::Preset, lesion, 0.0});
   ImGui::SameLine();
