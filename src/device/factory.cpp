@@ -6,6 +6,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/udp_device.hpp"
+#include "cariesim/record/recorder.hpp"
 
 namespace cariesim {
 
@@ -15,14 +16,18 @@ namespace {
   throw Error("device spec '" + spec + "': " + why);
 }
 
-// `scripted:FILE[:loop]`: the file may itself contain ':'; a trailing ":loop" is the option.
-std::unique_ptr<Device> make_scripted(const std::string& spec, std::string_view rest, const DeviceOptions& options) {
-  bool loop = false;
+// Removes a trailing ":loop" option from a file argument (the file may itself contain ':').
+bool strip_loop(std::string_view& rest) {
   constexpr std::string_view kLoop = ":loop";
-  if (rest.size() > kLoop.size() && rest.substr(rest.size() - kLoop.size()) == kLoop) {
-    loop = true;
-    rest.remove_suffix(kLoop.size());
-  }
+  if (rest.size() <= kLoop.size() || rest.substr(rest.size() - kLoop.size()) != kLoop) return false;
+  rest.remove_suffix(kLoop.size());
+  return true;
+}
+
+// `scripted:FILE[:loop]`.
+std::unique_ptr<Device> make_scripted(const std::string& spec, std::string_view rest,
+                                      const DeviceOptions& options) {
+  const bool loop = strip_loop(rest);
   if (rest.empty()) bad_spec(spec, "missing trajectory file (expected scripted:FILE[:loop])");
   const std::string file(rest);
   try {
@@ -32,14 +37,28 @@ std::unique_ptr<Device> make_scripted(const std::string& spec, std::string_view 
   }
 }
 
+// `replay:FILE[:loop]`: the record module's replay device (cariesim_record, which needs nothing from
+// this library, so linking it here makes no cycle).
+std::unique_ptr<Device> make_replay(const std::string& spec, std::string_view rest) {
+  const bool loop = strip_loop(rest);
+  if (rest.empty()) bad_spec(spec, "missing recording file (expected replay:FILE[:loop])");
+  try {
+    return make_replay_device(std::string(rest), loop);
+  } catch (const Error& e) {
+    bad_spec(spec, e.what());
+  }
+}
+
 // `udp:PORT[:HOST]`.
-std::unique_ptr<Device> make_udp(const std::string& spec, std::string_view rest, const DeviceOptions& options) {
+std::unique_ptr<Device> make_udp(const std::string& spec, std::string_view rest,
+                                 const DeviceOptions& options) {
   const std::size_t colon = rest.find(':');
   const std::string_view port_text = rest.substr(0, colon);
   unsigned port = 0;
   const auto [end, ec] = std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);
   if (port_text.empty() || ec != std::errc() || end != port_text.data() + port_text.size() || port > 65535)
-    bad_spec(spec, "port '" + std::string(port_text) + "' is not a number in [0, 65535] (expected udp:PORT[:HOST])");
+    bad_spec(spec, "port '" + std::string(port_text) +
+                       "' is not a number in [0, 65535] (expected udp:PORT[:HOST])");
   UdpOptions udp;
   udp.port = static_cast<uint16_t>(port);
   if (colon != std::string_view::npos) {
@@ -65,11 +84,11 @@ std::unique_ptr<Device> make_device(const std::string& spec, const DeviceOptions
   }
   if (kind == "scripted") return make_scripted(spec, rest, options);
   if (kind == "udp") return make_udp(spec, rest, options);
-  if (kind == "replay" || kind == "mouse")
-    bad_spec(spec, std::string(kind) == "replay"
-                       ? "replay devices come from make_replay_device (cariesim_record), composed by the run command"
-                       : "the mouse device lives in the viewer, composed by the run command");
-  bad_spec(spec, "unknown device (expected null, scripted:FILE[:loop], udp:PORT[:HOST], replay:FILE or mouse)");
+  if (kind == "replay") return make_replay(spec, rest);
+  if (kind == "mouse") bad_spec(spec, "the mouse device lives in the viewer, which composes it");
+  bad_spec(
+      spec,
+      "unknown device (expected null, scripted:FILE[:loop], replay:FILE[:loop], udp:PORT[:HOST] or mouse)");
 }
 
 }  // namespace cariesim

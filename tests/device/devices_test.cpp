@@ -1,13 +1,17 @@
-// The hardware-free devices (null, scripted) and the device factory's specs.
+// The hardware-free devices (null, scripted) and the device factory's specs, replay included.
+#include "cariesim/device/devices.hpp"
+
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/device/devices.hpp"
 #include "cariesim/device/factory.hpp"
 #include "cariesim/device/udp_device.hpp"
+#include "cariesim/record/recorder.hpp"
+#include "cariesim/record/replay.hpp"
 
 namespace cariesim {
 namespace {
@@ -91,7 +95,9 @@ TEST(ScriptedDevice, LoopsWhenAsked) {
   EXPECT_NE(d.info().description.find("loop"), std::string::npos);
 }
 
-TEST(ScriptedDevice, RefusesAnEmptyTrajectory) { EXPECT_THROW(ScriptedDevice(Trajectory{}, false, "x"), Error); }
+TEST(ScriptedDevice, RefusesAnEmptyTrajectory) {
+  EXPECT_THROW(ScriptedDevice(Trajectory{}, false, "x"), Error);
+}
 
 TEST(DeviceFactory, MakesEachKind) {
   DeviceOptions options;
@@ -123,10 +129,10 @@ TEST(DeviceFactory, MakesEachKind) {
 TEST(DeviceFactory, BadSpecsNameTheSpec) {
   const auto bad_csv = temp_file("bad.csv", "t,px\n0,1\n");
   for (const std::string& spec :
-       {std::string("nul"), std::string(""), std::string("null:x"), std::string("scripted"), std::string("scripted:"),
-        std::string("scripted:/no/such/file.csv"), "scripted:" + bad_csv.string(), std::string("udp"),
-        std::string("udp:"), std::string("udp:port"), std::string("udp:70000"), std::string("udp:-1"),
-        std::string("udp:47000:"), std::string("replay:x.db"), std::string("mouse")}) {
+       {std::string("nul"), std::string(""), std::string("null:x"), std::string("scripted"),
+        std::string("scripted:"), std::string("scripted:/no/such/file.csv"), "scripted:" + bad_csv.string(),
+        std::string("udp"), std::string("udp:"), std::string("udp:port"), std::string("udp:70000"),
+        std::string("udp:-1"), std::string("udp:47000:"), std::string("replay:x.db"), std::string("mouse")}) {
     try {
       make_device(spec);
       ADD_FAILURE() << "no error for '" << spec << "'";
@@ -135,6 +141,52 @@ TEST(DeviceFactory, BadSpecsNameTheSpec) {
     }
   }
   std::filesystem::remove(bad_csv);
+}
+
+TEST(DeviceFactory, ReplayReachesTheRecordModule) {
+  // A 1 s recording at 100 Hz: the tool moves 10 mm along x.
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("cariesim_device_test_replay_" + std::to_string(::getpid()) + ".db");
+  std::filesystem::remove(file);
+  {
+    SessionInfo info;
+    info.scene = "friction-block";
+    info.device = "scripted:line.csv";
+    info.rate_hz = 100.0;
+    Recorder recorder(file, info);
+    recorder.start();
+    for (int i = 0; i <= 100; ++i) {
+      ServoSample s;
+      s.t = 0.01 * i;
+      s.haptic.p = Vec3(0.1 * i, 0, 1);
+      s.graphic.p = Vec3(0.1 * i, 0, 1.5);
+      ASSERT_TRUE(recorder.queue().push(s));
+    }
+    recorder.stop();
+  }
+
+  // The factory hands out the record module's ReplayDevice, which plays the recorded haptic poses.
+  auto once = make_device("replay:" + file.string());
+  EXPECT_EQ(once->info().name, "replay");
+  auto* replay = dynamic_cast<ReplayDevice*>(once.get());
+  ASSERT_NE(replay, nullptr);
+  EXPECT_EQ(replay->size(), 101u);
+  once->start();
+  const DeviceState mid = once->read(0.5);
+  EXPECT_TRUE(mid.valid);
+  EXPECT_NEAR(mid.pose.p.x(), 5.0, 1e-9);
+  EXPECT_NEAR(replay->recorded_graphic(0.5).p.z(), 1.5, 1e-9);
+  EXPECT_FALSE(once->read(2.0).valid);  // past the end without looping
+
+  // With ":loop" it starts over instead of ending.
+  auto looped = make_device("replay:" + file.string() + ":loop");
+  looped->start();
+  const DeviceState again = looped->read(1.01 + 0.5);
+  EXPECT_TRUE(again.valid);
+  EXPECT_NEAR(again.pose.p.x(), 5.0, 1e-6);
+  once.reset();
+  looped.reset();
+  std::filesystem::remove(file);
 }
 
 TEST(DeviceFactory, UdpBindFailureNamesTheAddress) {

@@ -1,7 +1,8 @@
 #pragma once
-/// Devices from a spec string (the `--device` option of `cariesim run`): `null`,
-/// `scripted:FILE[:loop]`, `udp:PORT[:HOST]`. `replay:FILE` comes from make_replay_device
-/// (record/recorder.hpp) and `mouse` from the viewer; the run command composes them.
+/// Devices from a spec string (the `--device` option of `cariesim run` and `cariesim servo`): `null`,
+/// `scripted:FILE[:loop]`, `replay:FILE[:loop]` (a session recording, through make_replay_device of
+/// record/recorder.hpp; cariesim_runtime links cariesim_record for it), `udp:PORT[:HOST]`. `mouse`
+/// lives in the viewer, which composes it.
 
 #include <memory>
 #include <string>
@@ -12,13 +13,13 @@ namespace cariesim {
 
 /// What a device needs to know about the scene it drives.
 struct DeviceOptions {
-  Pose home;                  ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
-  DeviceLimits limits;        ///< the simulator's device limits (Model::limits)
+  Pose home;            ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
+  DeviceLimits limits;  ///< the simulator's device limits (Model::limits)
   double udp_timeout = 0.05;  ///< s, the UDP bridge's largest accepted transit delay
 };
 
 /// Makes a device from a spec. Throws cariesim::Error naming the spec when it is unknown or bad
-/// (missing file name, port out of range, unreadable trajectory).
+/// (missing file name, port out of range, unreadable trajectory or recording).
 std::unique_ptr<Device> make_device(const std::string& spec, const DeviceOptions& options = {});
 
 }  // namespace cariesim
