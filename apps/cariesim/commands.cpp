@@ -5,9 +5,10 @@
 namespace cariesim::cli {
 
 // Defined in the command files (run_command.cpp, tree_command.cpp, scene_command.cpp,
-// export_command.cpp).
+// export_command.cpp, servo_command.cpp).
 void register_run(CLI::App& app, Registry& registry);
 void register_tree(CLI::App& app, Registry& registry);
+void register_servo(CLI::App& app, Registry& registry);
 void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
 
@@ -22,6 +23,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_run(app, registry);
   register_sim(app, registry);
   register_experiment(app, registry);
+  register_servo(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
   register_export(app, registry);

@@ -1,0 +1,169 @@
+// `cariesim servo [--scene S] [--device SPEC] [--rate HZ] [--duration S] [--record FILE]`: the real-time
+// servo loop without a window (DESIGN.md §5). It drives the engine from any device (null,
+// scripted:FILE, replay:FILE, udp:PORT: the UDP bridge of docs/device-bridge.md), prints a status line
+// per second and, at the end, the loop's timing (step time and jitter percentiles, overruns), the
+// device's counters and what was recorded.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "cariesim/device/factory.hpp"
+#include "cariesim/record/recorder.hpp"
+#include "cariesim/scene/scene.hpp"
+#include "cariesim/servo/servo.hpp"
+#include "commands.hpp"
+#include "progress_printer.hpp"
+
+namespace cariesim::cli {
+
+namespace {
+
+struct ServoArgs {
+  std::string scene = "oral-cavity";
+  std::string device = "null";
+  double rate = 0.0;         // Hz; 0 = the scene's servo rate
+  double duration = 0.0;     // s; 0 = until the device ends or Ctrl-C
+  std::string record;        // SQLite file, optional
+  double force_scale = 1.0;  // global force scale in [0, 1]
+  bool no_realtime = false;
+  bool quiet = false;
+};
+
+// Set by SIGINT/SIGTERM; the main thread polls it.
+volatile std::sig_atomic_t g_interrupted = 0;
+extern "C" void on_interrupt(int /*signal*/) { g_interrupted = 1; }
+
+// "|F|=... state depth" of the latest snapshot, once per second.
+void print_status(const ServoSnapshot& s) {
+  std::fprintf(stderr,
+               "servo: t=%7.2f s  %-10s |F|=%6.3f N  |tau|=%7.2f N.mm  depth=%.3f mm  contacts=%d  %s  "
+               "rate=%.0f Hz  overruns=%llu  safety=0x%02x\n",
+               s.t, state_name(s.out.state), s.force.norm(), s.torque.norm(), s.out.depth, s.out.contacts,
+               s.device.valid ? "input ok" : "no input", s.rate_hz,
+               static_cast<unsigned long long>(s.overruns), s.safety_flags);
+}
+
+// The loop's timing report, the device's counters, the recorder's summary.
+void print_report(const ServoLoop& loop, const Device& device, const Recorder* recorder) {
+  const TimingReport r = loop.timing();
+  std::fprintf(stderr,
+               "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns; real-time: %s\n"
+               "  step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n"
+               "  jitter    (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n",
+               static_cast<unsigned long long>(r.cycles), r.rate_hz, 1.0 / loop.dt(),
+               static_cast<unsigned long long>(r.overruns), loop.realtime_status().c_str(), r.step_p50,
+               r.step_p99, r.step_p999, r.step_max, r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
+  const auto counters = device.counters();
+  if (!counters.empty()) {
+    std::fprintf(stderr, "  device %s:", device.info().name.c_str());
+    for (const DeviceCounter& c : counters)
+      std::fprintf(stderr, " %s=%llu", c.name, static_cast<unsigned long long>(c.value));
+    std::fprintf(stderr, "\n");
+  }
+  if (recorder != nullptr) {
+    const RecorderStatus st = recorder->status();
+    std::fprintf(stderr, "  recorded %llu samples, %llu events to %s (%llu dropped by the loop)%s%s\n",
+                 static_cast<unsigned long long>(st.written), static_cast<unsigned long long>(st.events),
+                 recorder->file().string().c_str(), static_cast<unsigned long long>(loop.dropped_samples()),
+                 st.ok ? "" : "; failed: ", st.message.c_str());
+  }
+}
+
+int run_servo(const ServoArgs& args) {
+  // The model and the device it drives.
+  BuildOptions build;
+  if (!args.quiet) build.progress = progress_printer();
+  Model model = build_model(load_scene(args.scene), build);
+  DeviceOptions device_options;
+  device_options.home = model.tool_home;
+  device_options.limits = model.limits;
+  const std::unique_ptr<Device> device = make_device(args.device, device_options);
+  const DeviceInfo info = device->info();
+  // A scripted or replayed path that does not loop ends the run when it ends.
+  const bool ends = (info.name == "scripted" || info.name == "replay") && !args.device.ends_with(":loop");
+
+  ServoOptions options;
+  options.rate_hz = args.rate > 0.0 ? args.rate : model.servo_rate;
+  options.realtime = !args.no_realtime;
+  options.safety.max_force = model.limits.max_force;
+  options.safety.max_torque = model.limits.max_torque;
+  options.safety.force_scale = args.force_scale;
+
+  // The recorder, when asked: the loop pushes samples into its queue, its thread writes them.
+  std::unique_ptr<Recorder> recorder;
+  if (!args.record.empty()) {
+    SessionInfo session;
+    session.scene = args.scene;
+    session.device = args.device;
+    session.rate_hz = options.rate_hz;
+    recorder = std::make_unique<Recorder>(args.record, session);
+    options.record = &recorder->queue();
+    recorder->start();
+  }
+
+  ServoLoop loop(model, *device, options);
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  loop.start();
+  if (!args.quiet) {
+    const std::string until = args.duration > 0.0 ? "for " + std::to_string(args.duration) + " s"
+                              : ends              ? "until the path ends or Ctrl-C"
+                                                  : "until Ctrl-C";
+    std::fprintf(stderr, "servo: %s on %s at %.0f Hz (%s); real-time: %s; %s\n", info.name.c_str(),
+                 args.scene.c_str(), options.rate_hz, info.description.c_str(),
+                 loop.realtime_status().c_str(), until.c_str());
+  }
+
+  // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C.
+  const auto started = std::chrono::steady_clock::now();
+  double next_status = 1.0;
+  bool seen_valid = false;
+  ServoSnapshot snapshot;
+  while (g_interrupted == 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    if (loop.latest(snapshot)) {
+      if (!args.quiet && elapsed >= next_status) {
+        print_status(snapshot);
+        next_status += 1.0;
+      }
+      if (ends && seen_valid && !snapshot.device.valid) break;
+      seen_valid = seen_valid || snapshot.device.valid;
+    }
+    if (args.duration > 0.0 && elapsed >= args.duration) break;
+  }
+  loop.stop();
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (recorder) recorder->stop();
+  print_report(loop, *device, recorder.get());
+  return 0;
+}
+
+}  // namespace
+
+void register_servo(CLI::App& app, Registry& registry) {
+  auto args = std::make_shared<ServoArgs>();
+  CLI::App* sub = app.add_subcommand("servo", "Run the real-time servo loop with a device, without a window");
+  sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
+  sub->add_option("--device", args->device,
+                  "null, scripted:FILE[:loop], replay:FILE[:loop] or udp:PORT[:HOST]")
+      ->capture_default_str();
+  sub->add_option("--rate", args->rate, "Servo rate in Hz, up to 10000 (default: the scene's)")
+      ->check(CLI::Range(1.0, 10000.0));
+  sub->add_option("--duration", args->duration, "Seconds to run (default: until a path ends, or Ctrl-C)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--record", args->record, "Record the session to this SQLite file (must not exist)");
+  sub->add_option("--force-scale", args->force_scale, "Global force scale")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for SCHED_FIFO priority");
+  sub->add_flag("--quiet", args->quiet, "Only the final report");
+  registry.add(sub, [args] { return run_servo(*args); });
+}
+
+}  // namespace cariesim::cli
