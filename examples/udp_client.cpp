@@ -64,38 +64,47 @@ struct Summary {
   uint64_t sent = 0;
   uint64_t received = 0;
   uint64_t bad = 0;
-  double max_force = 0.0;       // N
-  double rtt_sum = 0.0;         // s
+  double max_force = 0.0;  // N
+  double rtt_sum = 0.0;    // s
   uint32_t last_echo = 0;
 };
 
 void print_wrench(const bridge::WrenchPacket& w, double t) {
-  std::printf("t=%8.3f echo=%-8u F=(%+7.3f %+7.3f %+7.3f) N |F|=%6.3f N  tau=(%+8.2f %+8.2f %+8.2f) N.mm  %-10s "
-              "depth=%.3f mm flags=0x%04x\n",
-              t, w.sequence, w.force.x(), w.force.y(), w.force.z(), w.force.norm(), w.torque.x(), w.torque.y(),
-              w.torque.z(), state_name(static_cast<InteractionState>(w.state)), w.depth, w.flags);
+  std::printf(
+      "t=%8.3f echo=%-8u F=(%+7.3f %+7.3f %+7.3f) N |F|=%6.3f N  tau=(%+8.2f %+8.2f %+8.2f) N.mm  %-10s "
+      "depth=%.3f mm flags=0x%04x\n",
+      t, w.sequence, w.force.x(), w.force.y(), w.force.z(), w.force.norm(), w.torque.x(), w.torque.y(),
+      w.torque.z(), state_name(static_cast<InteractionState>(w.state)), w.depth, w.flags);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Streams a trajectory CSV to the cariesim UDP device bridge and prints the wrenches it gets back"};
+  CLI::App app{
+      "Streams a trajectory CSV to the cariesim UDP device bridge and prints the wrenches it gets back"};
   std::string file, host = "127.0.0.1", name = "cariesim_udp_client";
   uint16_t port = 47000;
   double rate = 1000.0, duration = 0.0, max_force = 22.0, max_stiffness = 1.0, max_torque = 500.0;
   double print_every = 0.1;
   bool loop = false, velocity = false, quiet = false;
-  app.add_option("trajectory", file, "trajectory CSV (t,px,py,pz,qw,qx,qy,qz; s, mm, unit quaternion)")->required();
+  app.add_option("trajectory", file, "trajectory CSV (t,px,py,pz,qw,qx,qy,qz; s, mm, unit quaternion)")
+      ->required();
   app.add_option("--host", host, "simulator host")->capture_default_str();
-  app.add_option("--port", port, "simulator UDP port (cariesim run --device udp:PORT)")->capture_default_str();
-  app.add_option("--rate", rate, "poses per second (Hz)")->capture_default_str()->check(CLI::Range(1.0, 10000.0));
-  app.add_option("--duration", duration, "seconds to stream (default: the trajectory's length, or forever with --loop)");
+  app.add_option("--port", port, "simulator UDP port (cariesim run --device udp:PORT)")
+      ->capture_default_str();
+  app.add_option("--rate", rate, "poses per second (Hz)")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--duration", duration,
+                 "seconds to stream (default: the trajectory's length, or forever with --loop)");
   app.add_flag("--loop", loop, "start the trajectory over at its end");
   app.add_flag("--velocity", velocity, "send velocities (finite differences) with every pose");
-  app.add_option("--print-every", print_every, "seconds between printed wrenches (0: every one)")->capture_default_str();
+  app.add_option("--print-every", print_every, "seconds between printed wrenches (0: every one)")
+      ->capture_default_str();
   app.add_option("--name", name, "device name announced in the hello")->capture_default_str();
   app.add_option("--max-force", max_force, "announced maximum force (N)")->capture_default_str();
-  app.add_option("--max-stiffness", max_stiffness, "announced maximum stiffness (N/mm)")->capture_default_str();
+  app.add_option("--max-stiffness", max_stiffness, "announced maximum stiffness (N/mm)")
+      ->capture_default_str();
   app.add_option("--max-torque", max_torque, "announced maximum torque (N.mm)")->capture_default_str();
   app.add_flag("--quiet", quiet, "print only the summary");
   CLI11_PARSE(app, argc, argv);
@@ -169,11 +178,12 @@ int main(int argc, char** argv) {
       deadline += period;
     }
     ::close(fd);
-    std::printf("sent %llu poses, received %llu wrenches (%llu invalid), last echo %u, max |F| %.3f N, "
-                "mean pose-to-wrench time %.3f ms\n",
-                static_cast<unsigned long long>(summary.sent), static_cast<unsigned long long>(summary.received),
-                static_cast<unsigned long long>(summary.bad), summary.last_echo, summary.max_force,
-                summary.received ? summary.rtt_sum / static_cast<double>(summary.received) * 1e3 : 0.0);
+    std::printf(
+        "sent %llu poses, received %llu wrenches (%llu invalid), last echo %u, max |F| %.3f N, "
+        "mean pose-to-wrench time %.3f ms\n",
+        static_cast<unsigned long long>(summary.sent), static_cast<unsigned long long>(summary.received),
+        static_cast<unsigned long long>(summary.bad), summary.last_echo, summary.max_force,
+        summary.received ? summary.rtt_sum / static_cast<double>(summary.received) * 1e3 : 0.0);
     return summary.received > 0 ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

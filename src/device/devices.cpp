@@ -27,7 +27,8 @@ DeviceState NullDevice::read(double now) {
 
 void NullDevice::write(const Vec3& /*force*/, const Vec3& /*torque*/) {}
 
-ScriptedDevice::ScriptedDevice(Trajectory trajectory, bool loop, std::string description, const DeviceLimits& limits)
+ScriptedDevice::ScriptedDevice(Trajectory trajectory, bool loop, std::string description,
+                               const DeviceLimits& limits)
     : trajectory_(std::move(trajectory)),
       cursor_(trajectory_),
       loop_(loop),

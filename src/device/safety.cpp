@@ -45,7 +45,8 @@ void ForceSafety::filter(Vec3& force, Vec3& torque, const DeviceState& input, do
   // Faults: an invalid or non-finite reading, a non-finite wrench, a stale reading, a jump.
   if (!input.valid) flags_ |= kSafetyInvalidInput;
   const bool pose_finite = input.pose.finite();
-  if (!pose_finite || !force.allFinite() || !torque.allFinite() || !std::isfinite(now)) flags_ |= kSafetyNonFinite;
+  if (!pose_finite || !force.allFinite() || !torque.allFinite() || !std::isfinite(now))
+    flags_ |= kSafetyNonFinite;
   if (!(now - input.stamp <= params_.stale_after)) flags_ |= kSafetyStale;
   if (pose_finite) {
     if (has_last_ && (input.pose.p - last_position_).norm() > params_.max_jump) flags_ |= kSafetyJump;

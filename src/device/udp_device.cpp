@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -11,8 +12,6 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
-
-#include <spdlog/spdlog.h>
 
 #include "cariesim/common/error.hpp"
 
@@ -48,15 +47,23 @@ int32_t sequence_diff(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - 
 
 BridgeVerdict verdict_of(bridge::ParseResult r) {
   switch (r) {
-    case bridge::ParseResult::Pose: return BridgeVerdict::AcceptedPose;
-    case bridge::ParseResult::Hello: return BridgeVerdict::AcceptedHello;
-    case bridge::ParseResult::Truncated: return BridgeVerdict::Truncated;
-    case bridge::ParseResult::BadMagic: return BridgeVerdict::BadMagic;
-    case bridge::ParseResult::BadVersion: return BridgeVerdict::BadVersion;
-    case bridge::ParseResult::NonFinite: return BridgeVerdict::NonFinite;
-    case bridge::ParseResult::NonUnit: return BridgeVerdict::NonUnit;
+    case bridge::ParseResult::Pose:
+      return BridgeVerdict::AcceptedPose;
+    case bridge::ParseResult::Hello:
+      return BridgeVerdict::AcceptedHello;
+    case bridge::ParseResult::Truncated:
+      return BridgeVerdict::Truncated;
+    case bridge::ParseResult::BadMagic:
+      return BridgeVerdict::BadMagic;
+    case bridge::ParseResult::BadVersion:
+      return BridgeVerdict::BadVersion;
+    case bridge::ParseResult::NonFinite:
+      return BridgeVerdict::NonFinite;
+    case bridge::ParseResult::NonUnit:
+      return BridgeVerdict::NonUnit;
     case bridge::ParseResult::Wrench:
-    case bridge::ParseResult::Malformed: return BridgeVerdict::Malformed;
+    case bridge::ParseResult::Malformed:
+      return BridgeVerdict::Malformed;
   }
   return BridgeVerdict::Malformed;
 }
@@ -71,18 +78,30 @@ Vec3 clamped(const Vec3& v, double limit) {
 
 const char* bridge_verdict_name(BridgeVerdict verdict) {
   switch (verdict) {
-    case BridgeVerdict::AcceptedPose: return "accepted_pose";
-    case BridgeVerdict::AcceptedHello: return "accepted_hello";
-    case BridgeVerdict::Truncated: return "rejected_truncated";
-    case BridgeVerdict::Malformed: return "rejected_malformed";
-    case BridgeVerdict::BadMagic: return "rejected_bad_magic";
-    case BridgeVerdict::BadVersion: return "rejected_bad_version";
-    case BridgeVerdict::NonFinite: return "rejected_non_finite";
-    case BridgeVerdict::NonUnit: return "rejected_non_unit";
-    case BridgeVerdict::Duplicate: return "rejected_duplicate";
-    case BridgeVerdict::OutOfOrder: return "rejected_out_of_order";
-    case BridgeVerdict::Stale: return "rejected_stale";
-    case BridgeVerdict::Foreign: return "rejected_foreign";
+    case BridgeVerdict::AcceptedPose:
+      return "accepted_pose";
+    case BridgeVerdict::AcceptedHello:
+      return "accepted_hello";
+    case BridgeVerdict::Truncated:
+      return "rejected_truncated";
+    case BridgeVerdict::Malformed:
+      return "rejected_malformed";
+    case BridgeVerdict::BadMagic:
+      return "rejected_bad_magic";
+    case BridgeVerdict::BadVersion:
+      return "rejected_bad_version";
+    case BridgeVerdict::NonFinite:
+      return "rejected_non_finite";
+    case BridgeVerdict::NonUnit:
+      return "rejected_non_unit";
+    case BridgeVerdict::Duplicate:
+      return "rejected_duplicate";
+    case BridgeVerdict::OutOfOrder:
+      return "rejected_out_of_order";
+    case BridgeVerdict::Stale:
+      return "rejected_stale";
+    case BridgeVerdict::Foreign:
+      return "rejected_foreign";
   }
   return "unknown";
 }
@@ -134,7 +153,8 @@ BridgeVerdict BridgeInbox::judge(const uint8_t* data, std::size_t size, uint64_t
     const int32_t d = sequence_diff(sequence, last_sequence_);
     if (d == 0) return BridgeVerdict::Duplicate;
     if (d < 0) return BridgeVerdict::OutOfOrder;
-    const double relaxed_offset = clock_offset_ + kDriftAllowance * std::max(recv_time - last_accept_time_, 0.0);
+    const double relaxed_offset =
+        clock_offset_ + kDriftAllowance * std::max(recv_time - last_accept_time_, 0.0);
     if (offset_sample - relaxed_offset > timeout_) return BridgeVerdict::Stale;
     clock_offset_ = std::min(relaxed_offset, offset_sample);
   }
@@ -145,7 +165,8 @@ BridgeVerdict BridgeInbox::judge(const uint8_t* data, std::size_t size, uint64_t
 
 BridgeCounters BridgeInbox::counters() const {
   BridgeCounters c;
-  for (std::size_t v = 0; v < kBridgeVerdictCount; ++v) c.by_verdict[v] = counts_[v].load(std::memory_order_relaxed);
+  for (std::size_t v = 0; v < kBridgeVerdictCount; ++v)
+    c.by_verdict[v] = counts_[v].load(std::memory_order_relaxed);
   c.sessions = sessions_.load(std::memory_order_relaxed);
   for (uint64_t n : c.by_verdict) c.received += n;
   return c;
@@ -166,7 +187,8 @@ DeviceInfo UdpDevice::info() const {
   DeviceInfo info;
   info.name = "udp";
   std::lock_guard<std::mutex> lock(info_mutex_);
-  info.description = options_.host + ":" + std::to_string(bound_port_.load() ? bound_port_.load() : options_.port);
+  info.description =
+      options_.host + ":" + std::to_string(bound_port_.load() ? bound_port_.load() : options_.port);
   if (!remote_name_.empty()) info.description += " (" + remote_name_ + ")";
   info.limits = announced_;
   info.renders_force = true;
@@ -332,7 +354,8 @@ void UdpDevice::write(const Vec3& force, const Vec3& torque) {
   w.client_time = latest_.client_time;
   w.server_time = last_now_;
   w.force = clamped(force.allFinite() ? force : Vec3::Zero(), limit_force_.load(std::memory_order_relaxed));
-  w.torque = clamped(torque.allFinite() ? torque : Vec3::Zero(), limit_torque_.load(std::memory_order_relaxed));
+  w.torque =
+      clamped(torque.allFinite() ? torque : Vec3::Zero(), limit_torque_.load(std::memory_order_relaxed));
   w.state = static_cast<uint8_t>(status_.state);
   w.depth = std::isfinite(status_.depth) ? status_.depth : 0.0;
   w.flags = static_cast<uint16_t>(status_.safety_flags & 0x7fu);

@@ -14,15 +14,15 @@ namespace {
 constexpr std::size_t kOffMagic = 0, kOffVersion = 4, kOffType = 5, kOffFlags = 6, kOffSequence = 8;
 
 // The SafetyFlag bits a wrench may carry, plus its own flags; the rest are reserved.
-constexpr uint16_t kWrenchKnownFlags = static_cast<uint16_t>(
-    kSafetyClampedForce | kSafetyClampedTorque | kSafetyRamping | kSafetyStale | kSafetyNonFinite |
-    kSafetyInvalidInput | kSafetyJump | kWrenchLimitsAcknowledged);
+constexpr uint16_t kWrenchKnownFlags =
+    static_cast<uint16_t>(kSafetyClampedForce | kSafetyClampedTorque | kSafetyRamping | kSafetyStale |
+                          kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump | kWrenchLimitsAcknowledged);
 
 // Little-endian field access, independent of the host's byte order.
 uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
 uint32_t get_u32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) | (static_cast<uint32_t>(p[2]) << 16) |
-         (static_cast<uint32_t>(p[3]) << 24);
+  return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
+         (static_cast<uint32_t>(p[2]) << 16) | (static_cast<uint32_t>(p[3]) << 24);
 }
 uint64_t get_u64(const uint8_t* p) {
   return static_cast<uint64_t>(get_u32(p)) | (static_cast<uint64_t>(get_u32(p + 4)) << 32);
@@ -91,8 +91,8 @@ ParseResult parse_pose_body(const uint8_t* data, std::size_t size, uint16_t flag
   const Quat q(get_f64(data + 48), get_f64(data + 56), get_f64(data + 64), get_f64(data + 72));
   out.velocity = out.has_velocity ? get_vec3(data + 80) : Vec3::Zero();
   out.angular_velocity = out.has_velocity ? get_vec3(data + 104) : Vec3::Zero();
-  if (!std::isfinite(out.client_time) || !p.allFinite() || !q.coeffs().allFinite() || !out.velocity.allFinite() ||
-      !out.angular_velocity.allFinite())
+  if (!std::isfinite(out.client_time) || !p.allFinite() || !q.coeffs().allFinite() ||
+      !out.velocity.allFinite() || !out.angular_velocity.allFinite())
     return ParseResult::NonFinite;
   if (!(std::abs(q.norm() - 1.0) <= kUnitTolerance)) return ParseResult::NonUnit;
   out.pose = Pose{p, q.normalized()};
@@ -138,15 +138,24 @@ std::string_view HelloPacket::name_view() const {
 
 const char* parse_result_name(ParseResult result) {
   switch (result) {
-    case ParseResult::Pose: return "pose";
-    case ParseResult::Hello: return "hello";
-    case ParseResult::Wrench: return "wrench";
-    case ParseResult::Truncated: return "truncated";
-    case ParseResult::Malformed: return "malformed";
-    case ParseResult::BadMagic: return "bad_magic";
-    case ParseResult::BadVersion: return "bad_version";
-    case ParseResult::NonFinite: return "non_finite";
-    case ParseResult::NonUnit: return "non_unit";
+    case ParseResult::Pose:
+      return "pose";
+    case ParseResult::Hello:
+      return "hello";
+    case ParseResult::Wrench:
+      return "wrench";
+    case ParseResult::Truncated:
+      return "truncated";
+    case ParseResult::Malformed:
+      return "malformed";
+    case ParseResult::BadMagic:
+      return "bad_magic";
+    case ParseResult::BadVersion:
+      return "bad_version";
+    case ParseResult::NonFinite:
+      return "non_finite";
+    case ParseResult::NonUnit:
+      return "non_unit";
   }
   return "unknown";
 }
@@ -179,7 +188,8 @@ ParseResult parse_wrench(const uint8_t* data, std::size_t size, WrenchPacket& ou
   out.flags = get_u16(data + kOffFlags);
   out.sequence = get_u32(data + kOffSequence);
   out.state = data[12];
-  if ((out.flags & ~kWrenchKnownFlags) != 0 || out.state > 3 || !all_zero(data + 13, 3)) return ParseResult::Malformed;
+  if ((out.flags & ~kWrenchKnownFlags) != 0 || out.state > 3 || !all_zero(data + 13, 3))
+    return ParseResult::Malformed;
   out.server_time = get_f64(data + 16);
   out.client_time = get_f64(data + 24);
   out.force = get_vec3(data + 32);

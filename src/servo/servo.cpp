@@ -2,14 +2,13 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <ctime>
-
-#include <spdlog/spdlog.h>
 
 #include "cariesim/common/error.hpp"
 
@@ -44,7 +43,8 @@ void bump(std::atomic<uint64_t>& counter) {
 
 TimingHistogram& TimingHistogram::operator=(const TimingHistogram& other) {
   if (this == &other) return *this;
-  for (int b = 0; b < kBins; ++b) bins_[b].store(other.bins_[b].load(std::memory_order_relaxed), std::memory_order_relaxed);
+  for (int b = 0; b < kBins; ++b)
+    bins_[b].store(other.bins_[b].load(std::memory_order_relaxed), std::memory_order_relaxed);
   count_.store(other.count(), std::memory_order_relaxed);
   max_.store(other.max(), std::memory_order_relaxed);
   return *this;
@@ -65,7 +65,8 @@ double TimingHistogram::percentile(double p) const {
   for (const auto& b : bins_) n += b.load(std::memory_order_relaxed);
   if (n == 0) return 0.0;
   const double fraction = std::isfinite(p) ? std::clamp(p, 0.0, 1.0) : 1.0;
-  const auto target = std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(fraction * static_cast<double>(n))));
+  const auto target =
+      std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(fraction * static_cast<double>(n))));
   const double top = max();
   uint64_t cumulative = 0;
   for (int b = 0; b < kBins - 1; ++b) {
@@ -210,7 +211,8 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   bump(cycles_);
   const uint64_t cycles = cycles_.load(std::memory_order_relaxed);
   if (wake_ns - rate_mark_ns_ >= 1000000000) {
-    measured_rate_ = static_cast<double>(cycles - rate_mark_cycles_) * 1e9 / static_cast<double>(wake_ns - rate_mark_ns_);
+    measured_rate_ =
+        static_cast<double>(cycles - rate_mark_cycles_) * 1e9 / static_cast<double>(wake_ns - rate_mark_ns_);
     rate_mark_ns_ = wake_ns;
     rate_mark_cycles_ = cycles;
   }

@@ -140,7 +140,8 @@ TEST_F(Inbox, CountsEveryParseRejection) {
   const Bytes non_finite = pose(1, kOffset, Vec3(std::nan(""), 0, 0));
   Bytes non_unit = good;
   non_unit[55] = 0x40;  // qw = 65536
-  for (const Bytes* b : std::initializer_list<const Bytes*>{&truncated, &malformed, &magic, &version, &non_finite, &non_unit})
+  for (const Bytes* b :
+       std::initializer_list<const Bytes*>{&truncated, &malformed, &magic, &version, &non_finite, &non_unit})
     EXPECT_NE(send(*b, 0.0), BridgeVerdict::AcceptedPose);
   inbox.count(BridgeVerdict::Malformed);  // e.g. an oversized datagram seen by the receiver
   const BridgeCounters c = inbox.counters();
@@ -159,7 +160,8 @@ TEST_F(Inbox, CountsEveryParseRejection) {
 TEST(BridgeVerdictNames, AreDistinct) {
   for (std::size_t a = 0; a < kBridgeVerdictCount; ++a)
     for (std::size_t b = a + 1; b < kBridgeVerdictCount; ++b)
-      EXPECT_STRNE(bridge_verdict_name(static_cast<BridgeVerdict>(a)), bridge_verdict_name(static_cast<BridgeVerdict>(b)));
+      EXPECT_STRNE(bridge_verdict_name(static_cast<BridgeVerdict>(a)),
+                   bridge_verdict_name(static_cast<BridgeVerdict>(b)));
 }
 
 }  // namespace

@@ -30,8 +30,8 @@ TEST(UdpExampleClient, StreamsATrajectoryAndGetsWrenches) {
 
   const auto csv = std::filesystem::temp_directory_path() / "cariesim_udp_client_test.csv";
   save_trajectory_csv(test::press_and_slide(model, 1.0, 0.5), csv);
-  const std::string command = std::string(CARIESIM_UDP_CLIENT) + " " + csv.string() +
-                              " --port " + std::to_string(device.port()) + " --print-every 0.2 --velocity 2>&1";
+  const std::string command = std::string(CARIESIM_UDP_CLIENT) + " " + csv.string() + " --port " +
+                              std::to_string(device.port()) + " --print-every 0.2 --velocity 2>&1";
   std::string output;
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);

@@ -3,11 +3,10 @@
 // truncated, out-of-order, duplicate, stale, non-finite, non-unit and foreign packets are rejected and
 // counted while the loop runs on; silence zeroes the force. No wall-clock timing is asserted.
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <array>
 #include <chrono>
@@ -43,7 +42,9 @@ class Client {
     EXPECT_EQ(::connect(fd_, reinterpret_cast<sockaddr*>(&to), sizeof(to)), 0);
   }
   ~Client() { ::close(fd_); }
-  void send(const uint8_t* data, std::size_t size) const { EXPECT_EQ(::send(fd_, data, size, 0), static_cast<ssize_t>(size)); }
+  void send(const uint8_t* data, std::size_t size) const {
+    EXPECT_EQ(::send(fd_, data, size, 0), static_cast<ssize_t>(size));
+  }
   void send(const Bytes& b) const { send(b.data(), b.size()); }
   // Every wrench that arrived, in order (non-blocking).
   void drain(std::vector<bridge::WrenchPacket>& out, int& invalid) const {
@@ -135,7 +136,8 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
     }
   };
   stream(600, 0.0);
-  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 600; }));
+  ASSERT_TRUE(
+      test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 600; }));
   ASSERT_TRUE(test::wait_for([&] {
     client.drain(wrenches, invalid);
     return !wrenches.empty() && wrenches.back().sequence == seq - 1;
@@ -176,24 +178,25 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   nan_pose.p.y() = std::nan("");
   Pose long_quat = here;
   long_quat.q.coeffs() *= 1.5;
-  client.send(longer);                                           // malformed
-  client.send(unknown_type);                                     // malformed
-  client.send(good.data(), 40);                                  // truncated
-  client.send(good.data(), 8);                                   // truncated
-  client.send(magic);                                            // bad magic
-  client.send(version);                                          // bad version
-  client.send(pose_packet(seq, client_clock(), nan_pose));       // non-finite
-  client.send(pose_packet(seq, client_clock(), long_quat));      // non-unit
-  client.send(pose_packet(seq - 1, client_clock(), here));       // duplicate of the last accepted
-  client.send(pose_packet(seq - 5, client_clock(), here));       // out of order
-  client.send(pose_packet(seq - 300, client_clock(), here));     // out of order
-  client.send(pose_packet(seq, client_clock() - 2.0, here));     // stale: 2 s in transit
+  client.send(longer);                                        // malformed
+  client.send(unknown_type);                                  // malformed
+  client.send(good.data(), 40);                               // truncated
+  client.send(good.data(), 8);                                // truncated
+  client.send(magic);                                         // bad magic
+  client.send(version);                                       // bad version
+  client.send(pose_packet(seq, client_clock(), nan_pose));    // non-finite
+  client.send(pose_packet(seq, client_clock(), long_quat));   // non-unit
+  client.send(pose_packet(seq - 1, client_clock(), here));    // duplicate of the last accepted
+  client.send(pose_packet(seq - 5, client_clock(), here));    // out of order
+  client.send(pose_packet(seq - 300, client_clock(), here));  // out of order
+  client.send(pose_packet(seq, client_clock() - 2.0, here));  // stale: 2 s in transit
   {
     Client intruder(bridge.device.port());
-    intruder.send(pose_packet(seq, client_clock(), here));       // foreign
+    intruder.send(pose_packet(seq, client_clock(), here));  // foreign
   }
   const uint64_t expected_rejections = 13;
-  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters().rejected() == expected_rejections; }));
+  ASSERT_TRUE(
+      test::wait_for([&] { return bridge.device.bridge_counters().rejected() == expected_rejections; }));
   const BridgeCounters c = bridge.device.bridge_counters();
   EXPECT_EQ(c[BridgeVerdict::Malformed], 2u);
   EXPECT_EQ(c[BridgeVerdict::Truncated], 2u);
@@ -210,7 +213,8 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
 
   // The loop ran on, and valid poses are still accepted and answered.
   stream(100, 0.6);
-  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 700; }));
+  ASSERT_TRUE(
+      test::wait_for([&] { return bridge.device.bridge_counters()[BridgeVerdict::AcceptedPose] == 700; }));
   ASSERT_TRUE(test::wait_for([&] {
     client.drain(wrenches, invalid);
     return wrenches.back().sequence == seq - 1;

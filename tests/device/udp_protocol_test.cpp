@@ -29,13 +29,13 @@ const Bytes kExamplePose = {
     0x9a, 0x99, 0x99, 0x99, 0x99, 0x99, 0xe9, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};
 // struct.pack('<IBBHIB3xdd3d3dd', 0x4D495343, 1, 0x81, 0x8001, 42, 1, 3.217, 12.5, 0, 0, 1.5, -2, 0,
 // 0, 0).
-const Bytes kExampleWrench = {
-    0x43, 0x53, 0x49, 0x4d, 0x01, 0x81, 0x01, 0x80, 0x2a, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
-    0x23, 0xdb, 0xf9, 0x7e, 0x6a, 0xbc, 0x09, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x29, 0x40,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xf8, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xc0,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};
+const Bytes kExampleWrench = {0x43, 0x53, 0x49, 0x4d, 0x01, 0x81, 0x01, 0x80, 0x2a, 0x00, 0x00, 0x00, 0x01,
+                              0x00, 0x00, 0x00, 0x23, 0xdb, 0xf9, 0x7e, 0x6a, 0xbc, 0x09, 0x40, 0x00, 0x00,
+                              0x00, 0x00, 0x00, 0x00, 0x29, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+                              0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+                              0x00, 0x00, 0xf8, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xc0, 0x00,
+                              0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+                              0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};
 
 PosePacket example_pose() {
   PosePacket p;
@@ -178,7 +178,8 @@ TEST(UdpProtocol, EachRejectionReason) {
   cases.push_back({"3 bytes", Bytes(pose.begin(), pose.begin() + 3), ParseResult::Truncated});
   cases.push_back({"header only", Bytes(pose.begin(), pose.begin() + 11), ParseResult::Truncated});
   cases.push_back({"pose minus one", Bytes(pose.begin(), pose.end() - 1), ParseResult::Truncated});
-  cases.push_back({"velocity flag without velocity", with(pose, [](Bytes& b) { b[6] = 1; }), ParseResult::Truncated});
+  cases.push_back(
+      {"velocity flag without velocity", with(pose, [](Bytes& b) { b[6] = 1; }), ParseResult::Truncated});
   cases.push_back({"hello minus one", Bytes(hello.begin(), hello.end() - 1), ParseResult::Truncated});
   // Magic and version.
   cases.push_back({"bad magic", with(pose, [](Bytes& b) { b[0] = 'X'; }), ParseResult::BadMagic});
@@ -188,30 +189,42 @@ TEST(UdpProtocol, EachRejectionReason) {
   // Malformed.
   cases.push_back({"pose plus one", with(pose, [](Bytes& b) { b.push_back(0); }), ParseResult::Malformed});
   cases.push_back({"unknown type", with(pose, [](Bytes& b) { b[5] = 9; }), ParseResult::Malformed});
-  cases.push_back({"a wrench from a client", with(pose, [](Bytes& b) { b[5] = 0x81; }), ParseResult::Malformed});
+  cases.push_back(
+      {"a wrench from a client", with(pose, [](Bytes& b) { b[5] = 0x81; }), ParseResult::Malformed});
   cases.push_back({"unknown pose flag", with(pose, [](Bytes& b) { b[7] = 0x80; }), ParseResult::Malformed});
   cases.push_back({"hello with flags", with(hello, [](Bytes& b) { b[6] = 1; }), ParseResult::Malformed});
   cases.push_back({"hello reserved bytes", with(hello, [](Bytes& b) { b[13] = 1; }), ParseResult::Malformed});
-  cases.push_back({"hello zero force", with(hello, [](Bytes& b) { put_f64(b, 24, 0.0); }), ParseResult::Malformed});
-  cases.push_back({"hello negative torque", with(hello, [](Bytes& b) { put_f64(b, 40, -1.0); }), ParseResult::Malformed});
+  cases.push_back(
+      {"hello zero force", with(hello, [](Bytes& b) { put_f64(b, 24, 0.0); }), ParseResult::Malformed});
+  cases.push_back(
+      {"hello negative torque", with(hello, [](Bytes& b) { put_f64(b, 40, -1.0); }), ParseResult::Malformed});
   cases.push_back({"hello inverted workspace", with(hello, [](Bytes& b) { put_f64(b, 48, 500.0); }),
                    ParseResult::Malformed});
-  cases.push_back({"hello control char in name", with(hello, [](Bytes& b) { b[97] = '\n'; }), ParseResult::Malformed});
-  cases.push_back({"hello text after the padding", with(hello, [](Bytes& b) { b[127] = 'x'; }), ParseResult::Malformed});
+  cases.push_back(
+      {"hello control char in name", with(hello, [](Bytes& b) { b[97] = '\n'; }), ParseResult::Malformed});
+  cases.push_back(
+      {"hello text after the padding", with(hello, [](Bytes& b) { b[127] = 'x'; }), ParseResult::Malformed});
   // Non-finite.
-  cases.push_back({"NaN position", with(pose, [&](Bytes& b) { put_f64(b, 32, nan); }), ParseResult::NonFinite});
-  cases.push_back({"infinite time", with(pose, [&](Bytes& b) { put_f64(b, 16, inf); }), ParseResult::NonFinite});
-  cases.push_back({"NaN quaternion", with(pose, [&](Bytes& b) { put_f64(b, 56, nan); }), ParseResult::NonFinite});
-  cases.push_back({"hello NaN stiffness", with(hello, [&](Bytes& b) { put_f64(b, 32, nan); }), ParseResult::NonFinite});
+  cases.push_back(
+      {"NaN position", with(pose, [&](Bytes& b) { put_f64(b, 32, nan); }), ParseResult::NonFinite});
+  cases.push_back(
+      {"infinite time", with(pose, [&](Bytes& b) { put_f64(b, 16, inf); }), ParseResult::NonFinite});
+  cases.push_back(
+      {"NaN quaternion", with(pose, [&](Bytes& b) { put_f64(b, 56, nan); }), ParseResult::NonFinite});
+  cases.push_back(
+      {"hello NaN stiffness", with(hello, [&](Bytes& b) { put_f64(b, 32, nan); }), ParseResult::NonFinite});
   // Non-unit quaternions.
   cases.push_back({"zero quaternion", with(pose, [](Bytes& b) { put_f64(b, 48, 0.0), put_f64(b, 64, 0.0); }),
                    ParseResult::NonUnit});
-  cases.push_back({"quaternion of length 2", with(pose, [](Bytes& b) { put_f64(b, 48, 1.2), put_f64(b, 64, 1.6); }),
+  cases.push_back({"quaternion of length 2",
+                   with(pose, [](Bytes& b) { put_f64(b, 48, 1.2), put_f64(b, 64, 1.6); }),
                    ParseResult::NonUnit});
-  cases.push_back({"quaternion of length 1.01", with(pose, [](Bytes& b) { put_f64(b, 48, 0.606), put_f64(b, 64, 0.808); }),
+  cases.push_back({"quaternion of length 1.01",
+                   with(pose, [](Bytes& b) { put_f64(b, 48, 0.606), put_f64(b, 64, 0.808); }),
                    ParseResult::NonUnit});
 
-  for (const Case& c : cases) EXPECT_EQ(parse(c.bytes), c.expected) << c.what << ": got " << parse_result_name(parse(c.bytes));
+  for (const Case& c : cases)
+    EXPECT_EQ(parse(c.bytes), c.expected) << c.what << ": got " << parse_result_name(parse(c.bytes));
   // A slightly off quaternion (within the tolerance) is accepted and normalised.
   ClientPacket out;
   const Bytes near_unit = with(pose, [](Bytes& b) { put_f64(b, 48, 0.6003); });
@@ -280,8 +293,14 @@ TEST(UdpProtocol, FuzzRandomMutationsOfValidPackets) {
   with_velocity.has_velocity = true;
   with_velocity.velocity = Vec3(1, 2, 3);
   const std::vector<Bytes> seeds = {encode(example_pose()), encode(with_velocity), encode(example_hello())};
-  const double specials[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
-                             -std::numeric_limits<double>::infinity(), 0.0, -0.0, 1.0, -1.0, 1e308,
+  const double specials[] = {std::numeric_limits<double>::quiet_NaN(),
+                             std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity(),
+                             0.0,
+                             -0.0,
+                             1.0,
+                             -1.0,
+                             1e308,
                              std::numeric_limits<double>::denorm_min()};
   std::array<int, 9> seen{};
   const auto stop_at = std::chrono::steady_clock::now() + std::chrono::seconds(2);
@@ -298,7 +317,8 @@ TEST(UdpProtocol, FuzzRandomMutationsOfValidPackets) {
           if (!b.empty()) b[rng() % b.size()] = static_cast<uint8_t>(rng());
           break;
         case 2:  // a special double at an 8-byte field
-          if (b.size() >= 24) put_f64(b, 16 + 8 * (rng() % ((b.size() - 16) / 8)), specials[rng() % std::size(specials)]);
+          if (b.size() >= 24)
+            put_f64(b, 16 + 8 * (rng() % ((b.size() - 16) / 8)), specials[rng() % std::size(specials)]);
           break;
         case 3:  // truncate
           b.resize(rng() % (b.size() + 1));
@@ -328,8 +348,9 @@ TEST(UdpProtocol, FuzzRandomMutationsOfValidPackets) {
     }
   }
   EXPECT_GT(iterations, 1000);
-  for (ParseResult r : {ParseResult::Pose, ParseResult::Hello, ParseResult::Truncated, ParseResult::Malformed,
-                        ParseResult::BadMagic, ParseResult::BadVersion, ParseResult::NonFinite, ParseResult::NonUnit})
+  for (ParseResult r :
+       {ParseResult::Pose, ParseResult::Hello, ParseResult::Truncated, ParseResult::Malformed,
+        ParseResult::BadMagic, ParseResult::BadVersion, ParseResult::NonFinite, ParseResult::NonUnit})
     EXPECT_GT(seen[static_cast<std::size_t>(r)], 0) << parse_result_name(r);
   EXPECT_EQ(seen[static_cast<std::size_t>(ParseResult::Wrench)], 0);
 }

@@ -65,7 +65,8 @@ TEST(ApplyParamChange, KcBecomesConstantOverDepth) {
 }
 
 TEST(ApplyParamChange, PresetsAreThePapers) {
-  for (const auto& [value, preset] : {std::pair{0.0, CariesPreset::Mild}, std::pair{1.0, CariesPreset::Severe}}) {
+  for (const auto& [value, preset] :
+       {std::pair{0.0, CariesPreset::Mild}, std::pair{1.0, CariesPreset::Severe}}) {
     Model m = two_lesion_model();
     m.materials[2].aniso_dir = Vec3::UnitX();
     m.materials[2].mu_s_along = 0.9;
@@ -88,18 +89,16 @@ TEST(ApplyParamChange, PresetsAreThePapers) {
 
 TEST(ApplyParamChange, RefusesBadChangesAndChangesNothing) {
   const ParamChange bad[] = {
-      {F::MuS, 2, 0.5},             // no such lesion
-      {F::MuS, -1, 0.5},            // no lesion
-      {F::MuS, 0, -0.1},            // negative friction
-      {F::MuD, 0, 6.0},             // beyond range
-      {F::Stiffness, 0, 0.0},       // must be > 0
-      {F::KE, 0, std::nan("")},     // not finite
-      {F::KC, 0, -1.0},
-      {F::KTheta, 0, 1e300},
-      {F::FPStar, 0, -2.0},
-      {F::FEStar, 0, std::numeric_limits<double>::infinity()},
-      {F::Preset, 0, 0.5},          // neither mild nor severe
-      {F::ForceScale, -1, 0.5},     // the loop's, not the model's
+      {F::MuS, 2, 0.5},          // no such lesion
+      {F::MuS, -1, 0.5},         // no lesion
+      {F::MuS, 0, -0.1},         // negative friction
+      {F::MuD, 0, 6.0},          // beyond range
+      {F::Stiffness, 0, 0.0},    // must be > 0
+      {F::KE, 0, std::nan("")},  // not finite
+      {F::KC, 0, -1.0},         {F::KTheta, 0, 1e300},
+      {F::FPStar, 0, -2.0},     {F::FEStar, 0, std::numeric_limits<double>::infinity()},
+      {F::Preset, 0, 0.5},       // neither mild nor severe
+      {F::ForceScale, -1, 0.5},  // the loop's, not the model's
   };
   for (const ParamChange& c : bad) {
     Model m = two_lesion_model();

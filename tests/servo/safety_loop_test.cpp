@@ -24,7 +24,9 @@ class GlitchDevice : public Device {
   static constexpr uint64_t kPressEnd = 400, kNaNEnd = 450, kJumpEnd = 600, kEnd = 800;
 
   explicit GlitchDevice(const Model& m) : home_(m.tool_home) {}
-  [[nodiscard]] DeviceInfo info() const override { return DeviceInfo{"glitch", "test", DeviceLimits{}, true}; }
+  [[nodiscard]] DeviceInfo info() const override {
+    return DeviceInfo{"glitch", "test", DeviceLimits{}, true};
+  }
   DeviceState read(double now) override {
     const uint64_t k = reads_.fetch_add(1);
     if (k >= kJumpEnd) {

@@ -229,7 +229,8 @@ TEST(ServoLoop, RunningCyclesAllocateNothing) {
   ServoLoop loop(m, d, o);
   loop.start();
   ServoSnapshot s;
-  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 400 && s.out.state == InteractionState::Sliding; }));
+  ASSERT_TRUE(
+      wait_for([&] { return loop.latest(s) && s.cycle >= 400 && s.out.state == InteractionState::Sliding; }));
 
   const std::size_t before = test::allocation_count();
   const uint64_t cycles_before = s.cycle;
@@ -238,7 +239,8 @@ TEST(ServoLoop, RunningCyclesAllocateNothing) {
     loop.post(ParamChange{ParamChange::Field::MuS, 0, 0.3 + 0.001 * i});
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  while (!loop.latest(s) || s.cycle < cycles_before + 100) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  while (!loop.latest(s) || s.cycle < cycles_before + 100)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   const std::size_t after = test::allocation_count();
   loop.stop();
 

@@ -35,7 +35,8 @@ inline Trajectory press_and_slide(const Model& model, double press = 0.5, double
 
 /// Polls `done` every millisecond; false after `limit` (a failure, not a timing assertion: it only
 /// keeps a broken test from hanging).
-inline bool wait_for(const std::function<bool()>& done, std::chrono::seconds limit = std::chrono::seconds(30)) {
+inline bool wait_for(const std::function<bool()>& done,
+                     std::chrono::seconds limit = std::chrono::seconds(30)) {
   const auto give_up = std::chrono::steady_clock::now() + limit;
   while (!done()) {
     if (std::chrono::steady_clock::now() > give_up) return false;

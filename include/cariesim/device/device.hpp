@@ -17,21 +17,21 @@ namespace cariesim {
 
 /// What a device is and what it can render.
 struct DeviceInfo {
-  std::string name;               ///< "null", "scripted", "replay", "mouse", "udp"
-  std::string description;        ///< e.g. the file or port it uses, the remote device's model
-  DeviceLimits limits;            ///< max force (N), stiffness (N/mm), torque (N·mm), workspace (mm)
-  bool renders_force = true;      ///< false for the mouse: the force is only shown
+  std::string name;           ///< "null", "scripted", "replay", "mouse", "udp"
+  std::string description;    ///< e.g. the file or port it uses, the remote device's model
+  DeviceLimits limits;        ///< max force (N), stiffness (N/mm), torque (N·mm), workspace (mm)
+  bool renders_force = true;  ///< false for the mouse: the force is only shown
 };
 
 /// One reading of the device.
 struct DeviceState {
-  Pose pose;                          ///< tool frame (origin at the tip sphere's centre) in the world
-  Vec3 velocity = Vec3::Zero();       ///< mm/s
+  Pose pose;                             ///< tool frame (origin at the tip sphere's centre) in the world
+  Vec3 velocity = Vec3::Zero();          ///< mm/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s
-  uint32_t buttons = 0;               ///< bit i = button i pressed
-  double stamp = 0.0;                 ///< s, servo-clock time at which this reading was taken/received
-  uint64_t sequence = 0;              ///< increases with every new reading
-  bool valid = false;                 ///< false until the first reading (or when the source ended)
+  uint32_t buttons = 0;                  ///< bit i = button i pressed
+  double stamp = 0.0;                    ///< s, servo-clock time at which this reading was taken/received
+  uint64_t sequence = 0;                 ///< increases with every new reading
+  bool valid = false;                    ///< false until the first reading (or when the source ended)
 };
 
 /// What the simulator reports alongside each wrench (the UDP bridge forwards it to its client).

@@ -50,9 +50,9 @@ class ScriptedDevice : public Device {
   bool loop_;
   std::string description_;
   DeviceLimits limits_;
-  bool started_ = false;      // the first read after start() happened
-  double origin_ = 0.0;       // s, servo time of that first read
-  double previous_now_ = 0.0; // s
+  bool started_ = false;       // the first read after start() happened
+  double origin_ = 0.0;        // s, servo time of that first read
+  double previous_now_ = 0.0;  // s
   Pose previous_pose_;
   bool finished_ = false;
   uint64_t sequence_ = 0;

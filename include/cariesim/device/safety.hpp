@@ -15,12 +15,12 @@
 namespace cariesim {
 
 struct SafetyParams {
-  double max_force = 22.0;      ///< N (Phantom Premium 3.0 6-DoF)
-  double max_torque = 500.0;    ///< N·mm
-  double ramp_time = 1.0;       ///< s, from zero to full force after start (and after a fault clears)
-  double stale_after = 0.05;    ///< s, a reading older than this zeroes the force
-  double force_scale = 1.0;     ///< global scale in [0, 1]
-  double max_jump = 20.0;       ///< mm, a larger move between two readings is a fault
+  double max_force = 22.0;    ///< N (Phantom Premium 3.0 6-DoF)
+  double max_torque = 500.0;  ///< N·mm
+  double ramp_time = 1.0;     ///< s, from zero to full force after start (and after a fault clears)
+  double stale_after = 0.05;  ///< s, a reading older than this zeroes the force
+  double force_scale = 1.0;   ///< global scale in [0, 1]
+  double max_jump = 20.0;     ///< mm, a larger move between two readings is a fault
 };
 
 /// Why the last wrench was changed.
@@ -34,7 +34,8 @@ enum SafetyFlag : uint32_t {
   kSafetyJump = 1u << 6,  ///< the reading jumped further than SafetyParams::max_jump
 };
 /// The flags that mean the force was zeroed.
-inline constexpr uint32_t kSafetyFaultMask = kSafetyStale | kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump;
+inline constexpr uint32_t kSafetyFaultMask =
+    kSafetyStale | kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump;
 
 class ForceSafety {
  public:
@@ -43,8 +44,8 @@ class ForceSafety {
   explicit ForceSafety(const SafetyParams& params = {});
   /// Filters a wrench for the reading `input` at servo time `now` (s). Returns the wrench to render.
   void filter(Vec3& force, Vec3& torque, const DeviceState& input, double now);
-  [[nodiscard]] uint32_t flags() const { return flags_; }   ///< SafetyFlag bits of the last call
-  [[nodiscard]] uint64_t faults() const { return faults_; } ///< calls that zeroed the force
+  [[nodiscard]] uint32_t flags() const { return flags_; }    ///< SafetyFlag bits of the last call
+  [[nodiscard]] uint64_t faults() const { return faults_; }  ///< calls that zeroed the force
   /// Sets the global scale; clamped to [0, 1], a non-finite value gives 0.
   void set_force_scale(double scale);
   [[nodiscard]] const SafetyParams& params() const { return params_; }
@@ -53,7 +54,7 @@ class ForceSafety {
 
  private:
   SafetyParams params_;
-  double ramp_start_ = -1.0;  // s; negative = not started
+  double ramp_start_ = -1.0;           // s; negative = not started
   Vec3 last_position_ = Vec3::Zero();  // mm, the previous finite reading
   bool has_last_ = false;
   uint32_t flags_ = 0;

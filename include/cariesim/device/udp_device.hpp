@@ -40,10 +40,10 @@ const char* bridge_verdict_name(BridgeVerdict verdict);
 /// The bridge's counters: datagrams by verdict, and the sender's packets.
 struct BridgeCounters {
   std::array<uint64_t, kBridgeVerdictCount> by_verdict{};  ///< indexed by BridgeVerdict
-  uint64_t received = 0;     ///< datagrams read from the socket
-  uint64_t sent = 0;         ///< wrench packets sent
-  uint64_t send_errors = 0;  ///< sendto failures
-  uint64_t sessions = 0;     ///< sessions started (first packet, hello, or a new client after a silence)
+  uint64_t received = 0;                                   ///< datagrams read from the socket
+  uint64_t sent = 0;                                       ///< wrench packets sent
+  uint64_t send_errors = 0;                                ///< sendto failures
+  uint64_t sessions = 0;  ///< sessions started (first packet, hello, or a new client after a silence)
 
   [[nodiscard]] uint64_t operator[](BridgeVerdict v) const { return by_verdict[static_cast<std::size_t>(v)]; }
   /// Datagrams rejected for any reason.
@@ -93,12 +93,12 @@ class BridgeInbox {
 
 /// Settings of the UDP device.
 struct UdpOptions {
-  uint16_t port = 47000;             ///< UDP port to listen on (0: any free port, see UdpDevice::port())
-  std::string host = "127.0.0.1";    ///< address to bind ("0.0.0.0" for every interface)
-  double timeout = 0.05;             ///< s, largest transit delay of an accepted pose
-  double session_timeout = 1.0;      ///< s, silence after which another client may connect
-  DeviceLimits limits;               ///< the simulator's limits; a hello can only lower them
-  Pose home;                         ///< reported before the first pose arrives
+  uint16_t port = 47000;           ///< UDP port to listen on (0: any free port, see UdpDevice::port())
+  std::string host = "127.0.0.1";  ///< address to bind ("0.0.0.0" for every interface)
+  double timeout = 0.05;           ///< s, largest transit delay of an accepted pose
+  double session_timeout = 1.0;    ///< s, silence after which another client may connect
+  DeviceLimits limits;             ///< the simulator's limits; a hello can only lower them
+  Pose home;                       ///< reported before the first pose arrives
 };
 
 class UdpDevice : public Device {
@@ -143,15 +143,15 @@ class UdpDevice : public Device {
   std::atomic<uint16_t> bound_port_{0};
   std::thread receiver_, sender_;
   BridgeInbox inbox_;
-  uint64_t accepted_ = 0;                    // receiver thread
-  TripleBuffer<Inbound> inbound_;            // receiver -> servo
-  TripleBuffer<bridge::WrenchPacket> outbound_;  // servo -> sender
-  std::atomic<uint32_t> outbound_ticket_{0};     // bumped per write; the sender waits on it
-  std::atomic<uint64_t> client_address_{0};      // IPv4 address << 16 | port (network order); 0 = none
+  uint64_t accepted_ = 0;                           // receiver thread
+  TripleBuffer<Inbound> inbound_;                   // receiver -> servo
+  TripleBuffer<bridge::WrenchPacket> outbound_;     // servo -> sender
+  std::atomic<uint32_t> outbound_ticket_{0};        // bumped per write; the sender waits on it
+  std::atomic<uint64_t> client_address_{0};         // IPv4 address << 16 | port (network order); 0 = none
   std::atomic<double> limit_force_, limit_torque_;  // N, N·mm: min(simulator, announced)
   std::atomic<bool> limits_acknowledged_{false};
   std::atomic<uint64_t> sent_{0}, send_errors_{0};
-  mutable std::mutex info_mutex_;            // guards announced_ (never taken by the servo thread)
+  mutable std::mutex info_mutex_;  // guards announced_ (never taken by the servo thread)
   DeviceLimits announced_;
   std::string remote_name_;
   // Servo thread only.

@@ -38,35 +38,35 @@ enum WrenchFlag : uint16_t {
   kWrenchLimitsAcknowledged = 1u << 15,  ///< a hello's limits are in force
 };
 
-inline constexpr std::size_t kHeaderSize = 12;              ///< bytes: magic, version, type, flags, sequence
-inline constexpr std::size_t kPoseSize = 80;                ///< bytes, pose packet without velocity
-inline constexpr std::size_t kPoseWithVelocitySize = 128;   ///< bytes, pose packet with velocity
-inline constexpr std::size_t kHelloSize = 128;              ///< bytes
-inline constexpr std::size_t kWrenchSize = 88;              ///< bytes
-inline constexpr std::size_t kMaxPacketSize = 128;          ///< bytes, the largest valid packet
-inline constexpr std::size_t kDeviceNameSize = 32;          ///< bytes, NUL-padded ASCII in a hello
-inline constexpr double kUnitTolerance = 1e-3;              ///< | |q| - 1 | allowed in a pose
+inline constexpr std::size_t kHeaderSize = 12;             ///< bytes: magic, version, type, flags, sequence
+inline constexpr std::size_t kPoseSize = 80;               ///< bytes, pose packet without velocity
+inline constexpr std::size_t kPoseWithVelocitySize = 128;  ///< bytes, pose packet with velocity
+inline constexpr std::size_t kHelloSize = 128;             ///< bytes
+inline constexpr std::size_t kWrenchSize = 88;             ///< bytes
+inline constexpr std::size_t kMaxPacketSize = 128;         ///< bytes, the largest valid packet
+inline constexpr std::size_t kDeviceNameSize = 32;         ///< bytes, NUL-padded ASCII in a hello
+inline constexpr double kUnitTolerance = 1e-3;             ///< | |q| - 1 | allowed in a pose
 
 /// A pose packet (client -> simulator).
 struct PosePacket {
-  uint32_t sequence = 0;          ///< increases by one with every packet the client sends
-  uint32_t buttons = 0;           ///< bit i = button i pressed
-  double client_time = 0.0;       ///< s, the client's clock when the pose was read
-  Pose pose;                      ///< tool frame in the simulator's world (mm, unit quaternion)
-  bool has_velocity = false;      ///< the velocities below were sent
-  Vec3 velocity = Vec3::Zero();   ///< mm/s, world
+  uint32_t sequence = 0;                 ///< increases by one with every packet the client sends
+  uint32_t buttons = 0;                  ///< bit i = button i pressed
+  double client_time = 0.0;              ///< s, the client's clock when the pose was read
+  Pose pose;                             ///< tool frame in the simulator's world (mm, unit quaternion)
+  bool has_velocity = false;             ///< the velocities below were sent
+  Vec3 velocity = Vec3::Zero();          ///< mm/s, world
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world
 };
 
 /// A hello packet (client -> simulator): the device's limits; starts a new session.
 struct HelloPacket {
-  uint32_t sequence = 0;        ///< the client's sequence counter (poses continue after it)
-  double client_time = 0.0;     ///< s, the client's clock
-  double max_force = 0.0;       ///< N, > 0
-  double max_stiffness = 0.0;   ///< N/mm, > 0
-  double max_torque = 0.0;      ///< N·mm, >= 0 (0: the device renders no torque)
-  Vec3 workspace_min = Vec3::Zero();  ///< mm, world
-  Vec3 workspace_max = Vec3::Zero();  ///< mm, world
+  uint32_t sequence = 0;                     ///< the client's sequence counter (poses continue after it)
+  double client_time = 0.0;                  ///< s, the client's clock
+  double max_force = 0.0;                    ///< N, > 0
+  double max_stiffness = 0.0;                ///< N/mm, > 0
+  double max_torque = 0.0;                   ///< N·mm, >= 0 (0: the device renders no torque)
+  Vec3 workspace_min = Vec3::Zero();         ///< mm, world
+  Vec3 workspace_max = Vec3::Zero();         ///< mm, world
   std::array<char, kDeviceNameSize> name{};  ///< device model, printable ASCII, NUL-padded
 
   /// The name without its padding.
@@ -75,14 +75,14 @@ struct HelloPacket {
 
 /// A wrench packet (simulator -> client).
 struct WrenchPacket {
-  uint32_t sequence = 0;        ///< echo of the pose packet this wrench answers
-  uint16_t flags = 0;           ///< SafetyFlag bits (0-6) and WrenchFlag bits
-  uint8_t state = 0;            ///< InteractionState: 0 free, 1 sliding, 2 inserting, 3 extracting
-  double server_time = 0.0;     ///< s, the simulator's servo clock
-  double client_time = 0.0;     ///< s, echo of that pose packet's client time
-  Vec3 force = Vec3::Zero();    ///< N, world, at the tool-frame origin (the tip sphere's centre)
-  Vec3 torque = Vec3::Zero();   ///< N·mm, world, about the tool-frame origin
-  double depth = 0.0;           ///< mm, insertion depth
+  uint32_t sequence = 0;       ///< echo of the pose packet this wrench answers
+  uint16_t flags = 0;          ///< SafetyFlag bits (0-6) and WrenchFlag bits
+  uint8_t state = 0;           ///< InteractionState: 0 free, 1 sliding, 2 inserting, 3 extracting
+  double server_time = 0.0;    ///< s, the simulator's servo clock
+  double client_time = 0.0;    ///< s, echo of that pose packet's client time
+  Vec3 force = Vec3::Zero();   ///< N, world, at the tool-frame origin (the tip sphere's centre)
+  Vec3 torque = Vec3::Zero();  ///< N·mm, world, about the tool-frame origin
+  double depth = 0.0;          ///< mm, insertion depth
 };
 
 /// What parsing a datagram found.

@@ -37,20 +37,20 @@ bool apply_param_change(Model& model, const ParamChange& change);
 
 /// One recorded sample (servo -> recorder), at the servo rate.
 struct ServoSample {
-  double t = 0.0;                 ///< s since the loop started
+  double t = 0.0;  ///< s since the loop started
   Pose haptic;
   Pose graphic;
-  Vec3 force = Vec3::Zero();      ///< N, rendered (after safety)
-  Vec3 torque = Vec3::Zero();     ///< N·mm, rendered
-  float depth = 0.0f;             ///< mm
-  float step_us = 0.0f;           ///< µs
-  float soft_tissue_force = 0.0f; ///< N
-  uint32_t step_flags = 0;        ///< StepFlag bits
-  uint32_t safety_flags = 0;      ///< SafetyFlag bits
+  Vec3 force = Vec3::Zero();       ///< N, rendered (after safety)
+  Vec3 torque = Vec3::Zero();      ///< N·mm, rendered
+  float depth = 0.0f;              ///< mm
+  float step_us = 0.0f;            ///< µs
+  float soft_tissue_force = 0.0f;  ///< N
+  uint32_t step_flags = 0;         ///< StepFlag bits
+  uint32_t safety_flags = 0;       ///< SafetyFlag bits
   uint16_t contacts = 0;
   int8_t lesion = -1;
   InteractionState state = InteractionState::Free;
-  bool overrun = false;           ///< this cycle missed its deadline
+  bool overrun = false;  ///< this cycle missed its deadline
   uint32_t buttons = 0;
 };
 
@@ -59,8 +59,8 @@ struct ServoSample {
 /// being added is approximate, never torn).
 class TimingHistogram {
  public:
-  static constexpr int kBins = 4096;       ///< 0.25 µs bins up to 1024 µs, the last bin holds the rest
-  static constexpr double kBinUs = 0.25;   ///< µs
+  static constexpr int kBins = 4096;      ///< 0.25 µs bins up to 1024 µs, the last bin holds the rest
+  static constexpr double kBinUs = 0.25;  ///< µs
   TimingHistogram() = default;
   TimingHistogram(const TimingHistogram& other) { *this = other; }
   TimingHistogram& operator=(const TimingHistogram& other);
@@ -69,7 +69,7 @@ class TimingHistogram {
   /// The value below which a fraction `p` (in [0, 1], e.g. 0.999) of the values lie: µs, the upper
   /// edge of its bin, never above max(); 0 when empty.
   [[nodiscard]] double percentile(double p) const;
-  [[nodiscard]] double max() const { return max_.load(std::memory_order_relaxed); } ///< µs
+  [[nodiscard]] double max() const { return max_.load(std::memory_order_relaxed); }  ///< µs
   [[nodiscard]] uint64_t count() const { return count_.load(std::memory_order_relaxed); }
   /// Empties it (not while another thread adds).
   void reset();
@@ -84,7 +84,7 @@ class TimingHistogram {
 /// device read, engine step, safety; "jitter" is how late the thread woke up after its deadline. An
 /// overrun is a cycle whose work ended after the next deadline.
 struct TimingReport {
-  double step_p50 = 0, step_p99 = 0, step_p999 = 0, step_max = 0;        ///< µs
+  double step_p50 = 0, step_p99 = 0, step_p999 = 0, step_max = 0;          ///< µs
   double jitter_p50 = 0, jitter_p99 = 0, jitter_p999 = 0, jitter_max = 0;  ///< µs, wake-up lateness
   uint64_t cycles = 0;
   uint64_t overruns = 0;
@@ -98,7 +98,7 @@ struct ServoSnapshot {
   Vec3 force = Vec3::Zero();   ///< N, rendered
   Vec3 torque = Vec3::Zero();  ///< N·mm, rendered
   uint32_t safety_flags = 0;
-  double t = 0.0;              ///< s since start
+  double t = 0.0;  ///< s since start
   uint64_t cycle = 0;
   uint64_t overruns = 0;
   double rate_hz = 0.0;        ///< measured over the last second
@@ -106,9 +106,9 @@ struct ServoSnapshot {
 };
 
 struct ServoOptions {
-  double rate_hz = 1000.0;            ///< Hz, 1 kHz default, up to 10 kHz
-  bool realtime = true;               ///< ask for SCHED_FIFO (reports when refused)
-  int realtime_priority = 80;         ///< SCHED_FIFO priority asked for (1-99)
+  double rate_hz = 1000.0;     ///< Hz, 1 kHz default, up to 10 kHz
+  bool realtime = true;        ///< ask for SCHED_FIFO (reports when refused)
+  int realtime_priority = 80;  ///< SCHED_FIFO priority asked for (1-99)
   SafetyParams safety;
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
 };
@@ -159,7 +159,7 @@ class ServoLoop {
   Model& model_;
   Device& device_;
   ServoOptions options_;
-  double dt_;                          // s
+  double dt_;  // s
   int64_t period_ns_;
   std::unique_ptr<State> state_;
   ForceSafety safety_;
@@ -172,8 +172,8 @@ class ServoLoop {
   std::string realtime_status_;
   TimingHistogram step_hist_, jitter_hist_;
   std::atomic<uint64_t> cycles_{0}, overruns_{0};
-  std::atomic<double> elapsed_{0.0};   // s, wall time run by the loop over every run
-  double time_base_ = 0.0;             // s, servo time at which the current run started
+  std::atomic<double> elapsed_{0.0};  // s, wall time run by the loop over every run
+  double time_base_ = 0.0;            // s, servo time at which the current run started
   // Servo thread only.
   Pose last_good_;
   ServoSnapshot snapshot_;
