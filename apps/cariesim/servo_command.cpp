@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "cariesim/device/factory.hpp"
+#include "cariesim/device/udp_device.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/servo.hpp"
@@ -64,6 +65,8 @@ void print_report(const ServoLoop& loop, const Device& device, const Recorder* r
       std::fprintf(stderr, " %s=%llu", c.name, static_cast<unsigned long long>(c.value));
     std::fprintf(stderr, "\n");
   }
+  if (const auto* udp = dynamic_cast<const UdpDevice*>(&device))
+    std::fprintf(stderr, "  bridge threads: %s\n", udp->realtime_status().c_str());
   if (recorder != nullptr) {
     const RecorderStatus st = recorder->status();
     std::fprintf(stderr, "  recorded %llu samples, %llu events to %s (%llu dropped by the loop)%s%s\n",
@@ -81,6 +84,7 @@ int run_servo(const ServoArgs& args) {
   DeviceOptions device_options;
   device_options.home = model.tool_home;
   device_options.limits = model.limits;
+  device_options.realtime = !args.no_realtime;
   const std::unique_ptr<Device> device = make_device(args.device, device_options);
   const DeviceInfo info = device->info();
   // A scripted or replayed path that does not loop ends the run when it ends.

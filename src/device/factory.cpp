@@ -68,6 +68,7 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::string_view rest,
   udp.timeout = options.udp_timeout;
   udp.limits = options.limits;
   udp.home = options.home;
+  if (!options.realtime) udp.realtime_priority = 0;
   return std::make_unique<UdpDevice>(udp);
 }
 

@@ -3,6 +3,8 @@
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
+#include <pthread.h>
+#include <sched.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -239,6 +241,24 @@ void UdpDevice::start() {
   running_.store(true);
   receiver_ = std::thread([this] { receive_loop(); });
   sender_ = std::thread([this] { send_loop(); });
+
+  // Real-time priority for both threads when asked and allowed: under load a normal-priority thread
+  // can wait milliseconds to be scheduled, and every such delay ages the pose or drops a wrench.
+  std::string status = "not requested (normal priority)";
+  if (options_.realtime_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
+                                   sched_get_priority_max(SCHED_FIFO));
+    int rc = pthread_setschedparam(receiver_.native_handle(), SCHED_FIFO, &sp);
+    if (rc == 0) rc = pthread_setschedparam(sender_.native_handle(), SCHED_FIFO, &sp);
+    status = rc == 0 ? "SCHED_FIFO priority " + std::to_string(sp.sched_priority)
+                     : std::string("refused: ") + std::strerror(rc) + "; normal priority";
+    if (rc != 0) spdlog::warn("udp device: real-time priority for the bridge threads {}", status);
+  }
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    realtime_status_ = status;
+  }
   spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
 }
 
@@ -365,6 +385,11 @@ void UdpDevice::write(const Vec3& force, const Vec3& torque) {
   outbound_.write(w);
   outbound_ticket_.fetch_add(1, std::memory_order_release);
   outbound_ticket_.notify_one();
+}
+
+std::string UdpDevice::realtime_status() const {
+  std::lock_guard<std::mutex> lock(info_mutex_);
+  return realtime_status_;
 }
 
 BridgeCounters UdpDevice::bridge_counters() const {

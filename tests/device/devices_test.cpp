@@ -120,9 +120,18 @@ TEST(DeviceFactory, MakesEachKind) {
   udp->start();
   EXPECT_GT(dynamic_cast<UdpDevice&>(*udp).port(), 0);
   EXPECT_FALSE(udp->read(0.0).valid);  // no client yet
+  // Real-time priority for the bridge threads was asked for, and the answer is reported either way.
+  EXPECT_EQ(dynamic_cast<UdpDevice&>(*udp).realtime_status().find("not requested"), std::string::npos);
+  EXPECT_FALSE(dynamic_cast<UdpDevice&>(*udp).realtime_status().empty());
   EXPECT_EQ(udp->read(0.0).pose.p, Vec3(4, 5, 6));
   udp->stop();
   udp->stop();
+  DeviceOptions normal = options;
+  normal.realtime = false;
+  auto plain = make_device("udp:0", normal);
+  plain->start();
+  EXPECT_EQ(dynamic_cast<UdpDevice&>(*plain).realtime_status().find("not requested"), 0u);
+  plain->stop();
   std::filesystem::remove(csv);
 }
 

@@ -16,6 +16,7 @@ struct DeviceOptions {
   Pose home;            ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
   DeviceLimits limits;  ///< the simulator's device limits (Model::limits)
   double udp_timeout = 0.05;  ///< s, the UDP bridge's largest accepted transit delay
+  bool realtime = true;       ///< the UDP bridge's threads ask for SCHED_FIFO (UdpOptions::realtime_priority)
 };
 
 /// Makes a device from a spec. Throws cariesim::Error naming the spec when it is unknown or bad

@@ -99,6 +99,10 @@ struct UdpOptions {
   double session_timeout = 1.0;    ///< s, silence after which another client may connect
   DeviceLimits limits;             ///< the simulator's limits; a hello can only lower them
   Pose home;                       ///< reported before the first pose arrives
+  /// SCHED_FIFO priority asked for the receiver and sender threads (1-99; 0: normal priority). Below
+  /// the servo thread's 80 by default, above everything else, so a loaded machine does not delay
+  /// the poses and wrenches; when refused the threads run at normal priority (see realtime_status()).
+  int realtime_priority = 70;
 };
 
 class UdpDevice : public Device {
@@ -119,6 +123,8 @@ class UdpDevice : public Device {
   [[nodiscard]] std::vector<DeviceCounter> counters() const override;
   /// The counters as a struct (any thread).
   [[nodiscard]] BridgeCounters bridge_counters() const;
+  /// "SCHED_FIFO priority N", "not requested" or why real-time priority was refused (after start()).
+  [[nodiscard]] std::string realtime_status() const;
   /// The bound port (after start()).
   [[nodiscard]] uint16_t port() const { return bound_port_.load(); }
 
@@ -151,6 +157,7 @@ class UdpDevice : public Device {
   std::atomic<double> limit_force_, limit_torque_;  // N, N·mm: min(simulator, announced)
   std::atomic<bool> limits_acknowledged_{false};
   std::atomic<uint64_t> sent_{0}, send_errors_{0};
+  std::string realtime_status_;    // set by start(), read under info_mutex_
   mutable std::mutex info_mutex_;  // guards announced_ (never taken by the servo thread)
   DeviceLimits announced_;
   std::string remote_name_;
