@@ -52,8 +52,14 @@ TimingHistogram& TimingHistogram::operator=(const TimingHistogram& other) {
 
 void TimingHistogram::add(double us) {
   if (!(us >= 0.0)) us = 0.0;  // negative or NaN
-  const double scaled = us / kBinUs;
-  const int bin = scaled >= kBins - 1 ? kBins - 1 : static_cast<int>(scaled);
+  // Fine bins up to 1024 µs, coarse ones up to 65.5 ms, then the overflow bin.
+  const double fine_top = kFineBins * kFineUs;
+  int bin = kBins - 1;
+  if (us < fine_top) {
+    bin = std::min(static_cast<int>(us / kFineUs), kFineBins - 1);
+  } else if (us < fine_top + kCoarseBins * kCoarseUs) {
+    bin = kFineBins + std::min(static_cast<int>((us - fine_top) / kCoarseUs), kCoarseBins - 1);
+  }
   bins_[bin].store(bins_[bin].load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   count_.store(count_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   if (us > max_.load(std::memory_order_relaxed)) max_.store(us, std::memory_order_relaxed);
@@ -71,7 +77,11 @@ double TimingHistogram::percentile(double p) const {
   uint64_t cumulative = 0;
   for (int b = 0; b < kBins - 1; ++b) {
     cumulative += bins_[b].load(std::memory_order_relaxed);
-    if (cumulative >= target) return std::min((b + 1) * kBinUs, top);
+    if (cumulative >= target) {
+      const double upper_edge =
+          b < kFineBins ? (b + 1) * kFineUs : kFineBins * kFineUs + (b - kFineBins + 1) * kCoarseUs;
+      return std::min(upper_edge, top);
+    }
   }
   return top;  // the overflow bin: its values are only bounded by the maximum
 }

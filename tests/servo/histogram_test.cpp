@@ -32,14 +32,26 @@ TEST(TimingHistogram, PercentilesOfAUniformSpread) {
   EXPECT_DOUBLE_EQ(h.percentile(0.0), 1.25);    // the first value's bin
 }
 
-TEST(TimingHistogram, OverflowBinAnswersTheMaximum) {
+TEST(TimingHistogram, CoarseBinsAboveAMillisecond) {
+  // Beyond 1024 µs the bins are 64 µs wide: 3000 µs lies in [2944, 3008).
   TimingHistogram h;
   for (int i = 0; i < 98; ++i) h.add(10.0);
   h.add(5000.0);
   h.add(3000.0);
   EXPECT_DOUBLE_EQ(h.percentile(0.5), 10.25);  // the upper edge of the bin of 10 µs
-  EXPECT_DOUBLE_EQ(h.percentile(0.99), 5000.0);
+  EXPECT_DOUBLE_EQ(h.percentile(0.99), 3008.0);
+  EXPECT_DOUBLE_EQ(h.percentile(1.0), 5000.0);  // 5000 lies in [4992, 5056): capped at the maximum
   EXPECT_DOUBLE_EQ(h.max(), 5000.0);
+}
+
+TEST(TimingHistogram, OverflowBinAnswersTheMaximum) {
+  // Beyond 65536 µs only the maximum is known.
+  TimingHistogram h;
+  for (int i = 0; i < 98; ++i) h.add(10.0);
+  h.add(90000.0);
+  h.add(70000.0);
+  EXPECT_DOUBLE_EQ(h.percentile(0.99), 90000.0);
+  EXPECT_DOUBLE_EQ(h.max(), 90000.0);
 }
 
 TEST(TimingHistogram, NegativeAndNaNCountAsZero) {

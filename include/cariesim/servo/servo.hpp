@@ -59,8 +59,11 @@ struct ServoSample {
 /// being added is approximate, never torn).
 class TimingHistogram {
  public:
-  static constexpr int kBins = 4096;      ///< 0.25 µs bins up to 1024 µs, the last bin holds the rest
-  static constexpr double kBinUs = 0.25;  ///< µs
+  static constexpr int kFineBins = 4096;     ///< 0.25 µs bins from 0 to 1024 µs
+  static constexpr double kFineUs = 0.25;    ///< µs, width of a fine bin
+  static constexpr int kCoarseBins = 1008;   ///< 64 µs bins from 1024 µs to 65536 µs (overruns)
+  static constexpr double kCoarseUs = 64.0;  ///< µs, width of a coarse bin
+  static constexpr int kBins = kFineBins + kCoarseBins + 1;  ///< the last bin holds the rest
   TimingHistogram() = default;
   TimingHistogram(const TimingHistogram& other) { *this = other; }
   TimingHistogram& operator=(const TimingHistogram& other);
