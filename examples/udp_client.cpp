@@ -1,5 +1,5 @@
 // cariesim_udp_client: an example client of the UDP device bridge (docs/device-bridge.md). It
-// streams a trajectory CSV to a running `cariesim run --device udp:PORT` (or any program running a
+// streams a trajectory CSV to a running `cariesim servo --device udp:PORT` (or any program running a
 // UdpDevice) at a fixed rate, as a lab device's servo loop would stream its pose, and prints the
 // wrenches the simulator sends back. A real device program does the same with the device's pose
 // instead of the trajectory, and renders the wrench instead of printing it.
@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
   app.add_option("trajectory", file, "trajectory CSV (t,px,py,pz,qw,qx,qy,qz; s, mm, unit quaternion)")
       ->required();
   app.add_option("--host", host, "simulator host")->capture_default_str();
-  app.add_option("--port", port, "simulator UDP port (cariesim run --device udp:PORT)")
+  app.add_option("--port", port, "simulator UDP port (cariesim servo --device udp:PORT)")
       ->capture_default_str();
   app.add_option("--rate", rate, "poses per second (Hz)")
       ->capture_default_str()
