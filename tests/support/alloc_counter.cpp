@@ -1,5 +1,7 @@
 // Global replacements that count allocations: every form of operator new and, on glibc outside
-// sanitizer builds, malloc/calloc/realloc too (Eigen's dynamic storage comes from malloc).
+// sanitizer builds, malloc/calloc/realloc too (Eigen's dynamic storage comes from malloc). ASan and
+// TSan intercept malloc themselves (TSan calls calloc while it initialises, before our replacement
+// could work), so there only operator new is counted.
 #include "support/alloc_counter.hpp"
 
 #include <atomic>
@@ -12,7 +14,7 @@ std::atomic<std::size_t> g_allocations{0};
 
 }  // namespace
 
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
 extern "C" {
 void* __libc_malloc(std::size_t n);
 void* __libc_calloc(std::size_t n, std::size_t size);
