@@ -239,6 +239,9 @@ void UdpDevice::start() {
   outbound_.read(old_wrench);
   latest_.pose = options_.home;
   running_.store(true);
+  // Logged before the threads start, so spdlog's default logger (created lazily by the first call)
+  // exists before the receiver can log too.
+  spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
   receiver_ = std::thread([this] { receive_loop(); });
   sender_ = std::thread([this] { send_loop(); });
 
@@ -259,7 +262,6 @@ void UdpDevice::start() {
     std::lock_guard<std::mutex> lock(info_mutex_);
     realtime_status_ = status;
   }
-  spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
 }
 
 void UdpDevice::stop() {
