@@ -38,6 +38,9 @@ struct Query {
   Vec3 fallback_normal;            // used when two centres coincide
   uint16_t object;
   uint32_t skip_flags;             // object leaves with any of these flags are not reported
+  PlacedTool::LeafHits* hits;      // per tool leaf: pairs reported for this object (stamped)
+  uint32_t stamp;                  // this object's traversal
+  uint32_t max_per_leaf;           // pairs a tool leaf may report for this object
 };
 
 // True when a tool node (inflated) and an object node overlap, within the pruning slack.
@@ -59,6 +62,10 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
   const double dist = d.norm();
   const double gap = dist - static_cast<double>(tn.radius) - static_cast<double>(on.radius);
   if (!(gap < q.leaf_margin[tn.leaf])) return;
+  PlacedTool::LeafHits& hits = q.hits[tn.leaf];
+  if (hits.stamp != q.stamp) hits = {q.stamp, 0};
+  if (hits.count >= q.max_per_leaf) return;
+  ++hits.count;
   Contact c;
   c.normal = dist > kCoincident ? Vec3(d / dist) : q.fallback_normal;
   c.point = co + c.normal * static_cast<double>(on.radius);
@@ -154,6 +161,16 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
   centers_.assign(tool.nodes.size(), Vec3::Zero());
   radii_.assign(tool.nodes.size(), 0.0);
   leaf_margin_.assign(tool.leaf_count(), 0.0);
+  leaf_hits_.assign(tool.leaf_count(), LeafHits{});
+}
+
+uint32_t PlacedTool::next_hit_stamp() const {
+  // Stamps tell one traversal's counters from older ones without clearing the table each time.
+  if (++hit_stamp_ == 0) {
+    std::fill(leaf_hits_.begin(), leaf_hits_.end(), LeafHits{});
+    hit_stamp_ = 1;
+  }
+  return hit_stamp_;
 }
 
 void PlacedTool::place(const Pose& pose, double margin) {
@@ -195,7 +212,7 @@ void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
 }
 
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-             ContactSet& out) {
+             ContactSet& out, uint32_t max_per_leaf) {
   const SphereTree& tree = tool.tree();
   if (tree.empty()) return;
   // Tool data shared by every object; the fallback normal backs the tool out along its axis.
@@ -204,6 +221,8 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   q.tool_centers = tool.centers().data();
   q.tool_radii = tool.radii().data();
   q.leaf_margin = tool.leaf_margins().data();
+  q.hits = tool.leaf_hits().data();
+  q.max_per_leaf = max_per_leaf;
   q.origin = tool.pose().p;
   q.fallback_normal = tool.pose().z_axis();
   if (!q.fallback_normal.allFinite() || q.fallback_normal.squaredNorm() < 0.5)
@@ -215,6 +234,7 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
     q.object_nodes = objects[i].tree.nodes.data();
     q.object = static_cast<uint16_t>(i);
     q.skip_flags = objects[i].surface_only ? kLeafInterior : 0u;
+    q.stamp = tool.next_hit_stamp();
     traverse(q, out);
   }
 }

@@ -36,14 +36,46 @@ void set_leaf_margins(const Model& m, StateImpl& s, double trans, double rot) {
 bool collect_pairs(const Model& m, StateImpl& s, const Pose& g, ObjectMask mask) {
   s.placed.place(g, s.leaf_margin);
   s.contacts.clear();
-  collide(s.placed, m.objects, mask, s.contacts);
-  const std::size_t n = std::min<std::size_t>(s.contacts.size(), kMaxPairs);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Contact& c = s.contacts[i];
-    s.pairs[i] = PairRef{c.object_node, c.tool_leaf, c.object, false};
+  collide(s.placed, m.objects, mask, s.contacts, kStepPairsPerToolLeaf);
+  const std::size_t found = s.contacts.size();
+  s.pair_count = 0;
+  if (found <= kMaxPairs) {
+    for (std::size_t i = 0; i < found; ++i) {
+      const Contact& c = s.contacts[i];
+      s.pairs[s.pair_count++] = PairRef{c.object_node, c.tool_leaf, c.object, false};
+    }
+    return !s.contacts.overflow();
   }
-  s.pair_count = static_cast<int>(n);
-  return !s.contacts.overflow() && s.contacts.size() <= kMaxPairs;
+
+  // More pairs than the rows can use: share the list fairly. Each (tool leaf, object) keeps its
+  // nearest pairs, the same number for all, as many as fit; a crowd of deep pairs (a handle in soft
+  // tissue) then cannot push out the few that hold the tip on a lesion's surface.
+  std::span<uint32_t> order(s.contact_order.data(), found);
+  for (std::size_t i = 0; i < found; ++i) order[i] = static_cast<uint32_t>(i);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const Contact& x = s.contacts[a];
+    const Contact& y = s.contacts[b];
+    if (x.tool_leaf != y.tool_leaf) return x.tool_leaf < y.tool_leaf;
+    if (x.object != y.object) return x.object < y.object;
+    return x.gap < y.gap;
+  });
+  std::array<int, kStepPairsPerToolLeaf + 1> per_rank{};
+  for (std::size_t k = 0; k < found; ++k) {
+    const bool same = k > 0 && s.contacts[order[k]].tool_leaf == s.contacts[order[k - 1]].tool_leaf &&
+                      s.contacts[order[k]].object == s.contacts[order[k - 1]].object;
+    s.contact_rank[k] = same ? static_cast<uint16_t>(std::min<int>(s.contact_rank[k - 1] + 1, kStepPairsPerToolLeaf))
+                             : uint16_t{0};
+    ++per_rank[s.contact_rank[k]];
+  }
+  int keep_below = 0, total = 0;
+  while (keep_below < static_cast<int>(kStepPairsPerToolLeaf) && total + per_rank[keep_below] <= kMaxPairs)
+    total += per_rank[keep_below++];
+  for (std::size_t k = 0; k < found; ++k) {
+    if (s.contact_rank[k] >= keep_below) continue;
+    const Contact& c = s.contacts[order[k]];
+    s.pairs[s.pair_count++] = PairRef{c.object_node, c.tool_leaf, c.object, false};
+  }
+  return false;
 }
 
 PairGeometry pair_geometry(const Model& m, const StateImpl& s, const Pose& g, const PairRef& p) {
@@ -133,6 +165,8 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
       reg.compliant = !mat.rigid();
       reg.tip = local.norm() <= kTipRegion;
     }
+    // The tip is in this region when any of its pairs is the tip's, not only the founding one.
+    s.regions[r].tip = s.regions[r].tip || local.norm() <= kTipRegion;
     s.pair_region[i] = static_cast<int16_t>(r);
   }
 }
@@ -273,7 +307,7 @@ double recheck_rigid(const Model& m, StateImpl& s, const Pose& g, ObjectMask mas
   std::fill(s.leaf_margin.begin(), s.leaf_margin.end(), 0.0);
   s.placed.place(g, s.leaf_margin);
   s.contacts.clear();
-  collide(s.placed, m.objects, rigid, s.contacts);
+  collide(s.placed, m.objects, rigid, s.contacts, kStepPairsPerToolLeaf);
   for (std::size_t c = 0; c < s.contacts.size() && s.pair_count < kMaxPairs; ++c) {
     const Contact& con = s.contacts[c];
     if (!(con.gap < -m.params.rigid_tolerance)) continue;

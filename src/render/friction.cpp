@@ -87,7 +87,12 @@ void add_friction_rows(const Model& m, StateImpl& s, const Pose& g, uint32_t& fl
     a.region = static_cast<int16_t>(r);
     const Vec3 x = g.transform(a.point_local);
     const Vec3 lever = x - g.p;
-    tangent_basis(s.regions[r].normal, a.tangents[0], a.tangents[1]);
+    const Vec3& n = s.regions[r].normal;
+    // The anchor lies in the contact's tangent plane: drop the offset along the normal (a tool
+    // sinking into compliant tissue leaves its anchor above it), which a later, tilted normal would
+    // otherwise turn into a sideways pull.
+    a.anchor -= n * n.dot(a.anchor - x);
+    tangent_basis(n, a.tangents[0], a.tangents[1]);
     for (int j = 0; j < 2; ++j) {
       QpRow row;
       row.a.head<3>() = a.tangents[j];

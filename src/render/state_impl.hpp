@@ -119,6 +119,8 @@ struct StateImpl {
   PlacedTool placed;
   ContactSet contacts;
   std::vector<double> leaf_margin;
+  std::vector<uint32_t> contact_order;  ///< scratch of collect_pairs (contact capacity)
+  std::vector<uint16_t> contact_rank;   ///< scratch of collect_pairs (contact capacity)
   std::array<PairRef, kMaxPairs> pairs{};
   std::array<PairGeometry, kMaxPairs> geometry{};
   std::array<int16_t, kMaxPairs> order{};

@@ -47,6 +47,8 @@ StateImpl::StateImpl(const Model& model)
   leaf_reach.resize(tool_leaves);
   leaf_margin.resize(tool_leaves);
   leaf_rows.resize(2 * tool_leaves);
+  contact_order.resize(model.capacities.contacts);
+  contact_rank.resize(model.capacities.contacts);
   for (std::size_t i = 0; i < tool_leaves; ++i) {
     const SphereNode& node = model.tool.tree.nodes[model.tool.tree.leaf_nodes[i]];
     leaf_local[i] = node.center.cast<double>();

@@ -56,7 +56,7 @@ double KcProfile::at(double depth_mm) const {
 // in sliding is not k_e: a surface that soft (0.4-0.5 N/mm in series with the 1 N/mm coupling)
 // lets the tip sink by F_p*/k_e² before |F_p| reaches F_p*, i.e. through the whole lesion, so the
 // penetration state would never start. Caries is softer than enamel (rigid) but firm enough that
-// the tip sinks a few tenths of a millimetre at F_p* (0.4 mm mild, 0.5 mm severe).
+// the tip sinks at most a few tenths of a millimetre at F_p* (0.13 mm mild, 0.5 mm severe).
 Material caries_preset(CariesPreset preset) {
   Material m;
   m.tissue = Tissue::Caries;
@@ -64,7 +64,7 @@ Material caries_preset(CariesPreset preset) {
   m.mu_s = mild ? 0.18 : 0.51;
   m.mu_d = mild ? 0.17 : 0.45;
   m.k_e = mild ? 0.53 : 0.38;
-  m.stiffness = mild ? 10.0 : 4.0;  // N/mm
+  m.stiffness = mild ? 30.0 : 4.0;  // N/mm
   m.k_c.kind = KcProfile::Kind::Constant;
   m.k_c.values.fill(mild ? 0.58 : 0.20);
   m.f_p_star = mild ? 2.0 : 0.8;

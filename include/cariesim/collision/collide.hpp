@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -82,13 +83,29 @@ class PlacedTool {
   [[nodiscard]] std::span<const double> radii() const { return radii_; }               ///< per node, inflated
   [[nodiscard]] std::span<const double> leaf_margins() const { return leaf_margin_; }  ///< mm, per leaf
 
+  /// Scratch of collide(): pairs reported per tool leaf for the object being traversed.
+  struct LeafHits {
+    uint32_t stamp = 0;
+    uint32_t count = 0;
+  };
+  [[nodiscard]] std::span<LeafHits> leaf_hits() const { return leaf_hits_; }
+  /// A fresh stamp for one object's traversal (the table is cleared when the stamps wrap).
+  uint32_t next_hit_stamp() const;
+
  private:
   const SphereTree* tool_;
   Pose pose_;
   std::vector<Vec3> centers_;
   std::vector<double> radii_;        // inflated radii used for pruning and the pair test
   std::vector<double> leaf_margin_;  // per leaf
+  mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
+  mutable uint32_t hit_stamp_ = 0;
 };
+
+/// Pairs per (tool leaf, object) the haptic step asks collide() for: a large handle sphere pressed
+/// into soft tissue overlaps hundreds of its leaves, which would crowd out every other contact from
+/// a bounded pair list (the step keeps at most three rows per leaf and object).
+inline constexpr uint32_t kStepPairsPerToolLeaf = 64;
 
 /// Which objects take part in a query (bit i = object i); at most 64 objects.
 using ObjectMask = uint64_t;
@@ -96,9 +113,10 @@ inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 
 /// Appends every (tool leaf, object leaf) pair whose gap is below the tool leaf's margin.
 /// `gap` and `normal` are computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
-/// `surface_only` objects are skipped.
+/// `surface_only` objects are skipped; each tool leaf reports at most `max_per_leaf` pairs per object
+/// (the first found, depth first; not necessarily the nearest).
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-             ContactSet& out);
+             ContactSet& out, uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max());
 
 /// Smallest gap between any tool leaf and any leaf of the masked objects, with the pair that gives it
 /// (no allocation). Returns +infinity when nothing is within `search_mm`.
