@@ -80,14 +80,10 @@ Stats abs_stats(const std::vector<SimSample>& samples, double t0, double t1,
 }
 
 double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples) {
-  // Objects whose every leaf is rigid (enamel, dentin, rigid blocks).
+  // Objects whose every leaf is rigid (enamel, dentin, rigid blocks), as the model builder found.
   ObjectMask rigid = 0;
-  for (std::size_t i = 0; i < model.objects.size(); ++i) {
-    const SphereTree& tree = model.objects[i].tree;
-    bool all = !tree.empty();
-    for (uint32_t node : tree.leaf_nodes) all = all && model.materials[tree.nodes[node].material].rigid();
-    if (all) rigid |= ObjectMask{1} << i;
-  }
+  for (std::size_t i = 0; i < model.objects.size(); ++i)
+    if (model.objects[i].surface_only) rigid |= ObjectMask{1} << i;
   PlacedTool placed(model.tool.tree);
   double worst = 0.0;
   for (const SimSample& s : samples) {
