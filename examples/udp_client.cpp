@@ -19,6 +19,7 @@
 #include <ctime>
 #include <string>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/udp_protocol.hpp"
 #include "cariesim/render/step.hpp"
@@ -27,20 +28,6 @@
 namespace {
 
 using namespace cariesim;
-
-int64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-void sleep_until(int64_t deadline_ns) {
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(deadline_ns / 1000000000);
-  ts.tv_nsec = static_cast<long>(deadline_ns % 1000000000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
 
 // A UDP socket connected to the simulator, so it only hears the simulator's answers.
 int connect_to(const std::string& host, uint16_t port) {
@@ -139,7 +126,7 @@ int main(int argc, char** argv) {
     double next_print = 0.0;
     Pose previous = trajectory.pose.front();
     for (uint64_t i = 0;; ++i) {
-      sleep_until(deadline);
+      sleep_until_ns(deadline);
       const double t = static_cast<double>(deadline - start) * 1e-9;
       if (t > duration) break;
 

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <ctime>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 
 namespace cariesim {
@@ -25,12 +26,6 @@ namespace {
 constexpr double kDriftAllowance = 1e-3;
 // How long the receiver blocks in recvfrom before it looks at the running flag again.
 constexpr long kReceivePollUs = 20000;
-
-int64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
 
 uint64_t address_key(const sockaddr_in& a) {
   return (static_cast<uint64_t>(a.sin_addr.s_addr) << 16) | a.sin_port;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <ctime>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 
 namespace cariesim {
@@ -18,21 +19,6 @@ namespace {
 
 constexpr double kMaxRateHz = 10000.0;
 constexpr int kMaxChangesPerCycle = 32;  // parameter changes applied between two steps, at most
-
-int64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-// Sleeps until the absolute CLOCK_MONOTONIC time `deadline_ns`.
-void sleep_until(int64_t deadline_ns) {
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(deadline_ns / 1000000000);
-  ts.tv_nsec = static_cast<long>(deadline_ns % 1000000000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
 
 // Single-writer increment of an atomic counter (no read-modify-write needed).
 void bump(std::atomic<uint64_t>& counter) {
@@ -169,7 +155,7 @@ void ServoLoop::run() {
   measured_rate_ = options_.rate_hz;
   while (running_.load(std::memory_order_relaxed)) {
     // Wait for the absolute deadline; how late we woke is the jitter.
-    sleep_until(deadline);
+    sleep_until_ns(deadline);
     const int64_t wake = monotonic_ns();
     jitter_hist_.add(static_cast<double>(wake - deadline) * 1e-3);
     t = time_base_ + static_cast<double>(deadline - start_ns) * 1e-9;

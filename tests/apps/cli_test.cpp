@@ -10,23 +10,17 @@
 #include <sstream>
 #include <string>
 
+#include "apps/apps_support.hpp"
+#include "support/files.hpp"
+
 namespace {
 
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-struct Result {
-  int status = -1;  // exit status
-  std::string out;  // stdout
-  std::string err;  // stderr
-};
+using Result = cariesim::test::CommandResult;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 // A scratch folder per test, removed afterwards.
 class CliTest : public ::testing::Test {
@@ -42,16 +36,7 @@ class CliTest : public ::testing::Test {
 
   // Runs `cariesim ARGS` with the cache in the scratch folder; captures both streams.
   Result run(const std::string& args) const {
-    const fs::path out = dir_ / "stdout.txt";
-    const fs::path err = dir_ / "stderr.txt";
-    const std::string command = "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "' '" + CARIESIM_EXE +
-                                "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-    const int raw = std::system(command.c_str());
-    Result r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
+    return cariesim::test::run_cariesim(args, dir_, "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "'");
   }
 
   fs::path write(const std::string& name, const std::string& text) const {

@@ -10,7 +10,9 @@
 #include <sstream>
 #include <string>
 
+#include "apps/apps_support.hpp"
 #include "cariesim/record/recorder.hpp"
+#include "support/files.hpp"
 
 namespace cariesim {
 namespace {
@@ -18,21 +20,13 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 // Runs `cariesim ARGS`; returns the exit status and stderr.
 int run_cariesim(const std::string& args, const fs::path& dir, std::string& err) {
-  const fs::path err_file = dir / "stderr.txt";
-  const std::string command =
-      "'" + std::string(CARIESIM_EXE) + "' " + args + " >/dev/null 2>'" + err_file.string() + "'";
-  const int raw = std::system(command.c_str());
-  err = read_text(err_file);
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  const test::CommandResult r = test::run_cariesim(args, dir);
+  err = r.err;
+  return r.status;
 }
 
 TEST(ExportCommand, WritesTheCsvFiles) {

@@ -11,8 +11,10 @@
 #include <sstream>
 #include <string>
 
+#include "apps/apps_support.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "servo/servo_support.hpp"
+#include "support/files.hpp"
 
 namespace cariesim {
 namespace {
@@ -20,12 +22,7 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 class ServoCommand : public ::testing::Test {
  protected:
@@ -40,12 +37,9 @@ class ServoCommand : public ::testing::Test {
 
   // Runs `cariesim ARGS`; returns the exit status, keeps stderr in err_.
   int run(const std::string& args) {
-    const fs::path err_file = dir_ / "stderr.txt";
-    const std::string command =
-        "'" + std::string(CARIESIM_EXE) + "' " + args + " >/dev/null 2>'" + err_file.string() + "'";
-    const int raw = std::system(command.c_str());
-    err_ = read_text(err_file);
-    return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    const test::CommandResult r = test::run_cariesim(args, dir_);
+    err_ = r.err;
+    return r.status;
   }
 
   fs::path dir_;

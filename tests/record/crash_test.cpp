@@ -28,6 +28,7 @@
 
 #include "cariesim/record/recorder.hpp"
 #include "record/record_support.hpp"
+#include "support/files.hpp"
 
 extern char** environ;
 
@@ -115,12 +116,7 @@ pid_t spawn_child(const std::filesystem::path& file, const std::filesystem::path
   return rc == 0 ? pid : -1;
 }
 
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 struct RunResult {
   int64_t pushed = -1;   // last sample index pushed when killed

@@ -10,16 +10,12 @@
 #include <string>
 
 #include "cariesim/scene/scene.hpp"
+#include "support/files.hpp"
 
 namespace cariesim {
 namespace {
 
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream out;
-  out << in.rdbuf();
-  return out.str();
-}
+using cariesim::test::read_text;
 
 const std::filesystem::path kScenes = std::filesystem::path(CARIESIM_SOURCE_DIR) / "scenes";
 

@@ -10,6 +10,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "support/files.hpp"
 
 namespace {
 
@@ -20,12 +21,7 @@ using cariesim::LesionMaterialEdit;
 using cariesim::Material;
 using ::testing::HasSubstr;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 // The named lesion's material as the parser sees it.
 const Material& lesion_material(const cariesim::SceneDesc& scene, const std::string& name) {

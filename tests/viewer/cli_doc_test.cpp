@@ -13,17 +13,13 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include "support/files.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 int shell(const std::string& command) {
   const int raw = std::system(command.c_str());

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "cariesim/scene/scene.hpp"
+#include "support/files.hpp"
 
 namespace {
 
@@ -30,12 +31,7 @@ using ::testing::HasSubstr;
 // s of servo time before the screenshot: the trajectories press from t = 2.5 s on.
 constexpr double kExitAfter = 4.0;
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using cariesim::test::read_text;
 
 fs::path artefacts() {
   const fs::path dir = fs::path(CARIESIM_BINARY_DIR) / "test-artifacts" / "viewer";
