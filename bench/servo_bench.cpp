@@ -55,7 +55,7 @@ void BM_ServoLoopOralCavity(benchmark::State& state) {
   std::string status;
   uint64_t contact_cycles = 0, total_samples = 0;
   for (auto _ : state) {
-    ScriptedDevice device(path, true, "servo-touch-46.csv", model.limits);
+    ScriptedDevice device(path, true, "servo-touch-46.csv", model.defaults.limits);
     ServoLoop loop(model, device, options);
     loop.start();
     status = loop.realtime_status();
@@ -106,7 +106,7 @@ BENCHMARK(BM_ServoLoopOralCavity)
 void BM_ServoCycleOralCavity(benchmark::State& state) {
   const Model& model = oral_cavity();
   const Trajectory path = load_trajectory_csv(CARIESIM_SOURCE_DIR "/scenes/trajectories/servo-touch-46.csv");
-  ScriptedDevice device(path, true, "servo-touch-46.csv", model.limits);
+  ScriptedDevice device(path, true, "servo-touch-46.csv", model.defaults.limits);
   device.start();
   State sim(model, model.tool_home);
   ForceSafety safety;

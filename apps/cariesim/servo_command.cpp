@@ -83,7 +83,7 @@ int run_servo(const ServoArgs& args) {
   Model model = build_model(load_scene(args.scene), build);
   DeviceOptions device_options;
   device_options.home = model.tool_home;
-  device_options.limits = model.limits;
+  device_options.limits = model.defaults.limits;
   device_options.realtime = !args.no_realtime;
   const std::unique_ptr<Device> device = make_device(args.device, device_options);
   const DeviceInfo info = device->info();
@@ -93,8 +93,8 @@ int run_servo(const ServoArgs& args) {
   ServoOptions options;
   options.rate_hz = args.rate > 0.0 ? args.rate : model.servo_rate;
   options.realtime = !args.no_realtime;
-  options.safety.max_force = model.limits.max_force;
-  options.safety.max_torque = model.limits.max_torque;
+  options.safety.max_force = model.defaults.limits.max_force;
+  options.safety.max_torque = model.defaults.limits.max_torque;
   options.safety.force_scale = args.force_scale;
 
   // The recorder, when asked: the loop pushes samples into its queue, its thread writes them.

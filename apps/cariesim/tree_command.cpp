@@ -163,7 +163,7 @@ int run_tree(const TreeArgs& args) {
     return 0;
   }
   std::printf("%s: %zu parts, %zu materials, %zu lesions, built in %.3f s\n", scene.name.c_str(),
-              report.parts.size(), model.materials.size(), model.lesions.size(), report.total_seconds);
+              report.parts.size(), model.defaults.materials.size(), model.lesions.size(), report.total_seconds);
   for (const PartReport& part : report.parts) print_part(part, model);
   std::printf("tool: %zu spheres\n", model.tool.tree.leaf_count());
   return 0;

@@ -181,8 +181,8 @@ void ViewerApp::panel_status() {
   ImGui::Text("insertion depth %.3f mm   contacts %d", out.depth, out.contacts);
   ImGui::Text("soft tissue %.3f N", out.soft_tissue_force);
   if (settings_.show_lesions && out.lesion >= 0 &&
-      static_cast<std::size_t>(out.lesion) < s.shadow.lesions.size())
-    ImGui::Text("lesion: %s", s.shadow.lesions[out.lesion].name.c_str());
+      static_cast<std::size_t>(out.lesion) < s.model->lesions.size())
+    ImGui::Text("lesion: %s", s.model->lesions[out.lesion].name.c_str());
   ImGui::Text("step flags: %s", flag_names(out.flags, {{kFlagNonFiniteInput, "non-finite input"},
                                                        {kFlagJumpLimited, "jump"},
                                                        {kFlagInfeasible, "infeasible"},
@@ -289,19 +289,19 @@ void ViewerApp::panel_view() {
 void ViewerApp::panel_lesion() {
   if (!ImGui::CollapsingHeader("Lesion parameters", ImGuiTreeNodeFlags_DefaultOpen)) return;
   Session& s = *session_;
-  if (s.shadow.lesions.empty()) {
+  if (s.model->lesions.empty()) {
     ImGui::TextDisabled("this scene has no lesions");
     return;
   }
-  panel_.lesion = std::clamp(panel_.lesion, 0, static_cast<int>(s.shadow.lesions.size()) - 1);
-  if (ImGui::BeginCombo("lesion", s.shadow.lesions[panel_.lesion].name.c_str())) {
-    for (int i = 0; i < static_cast<int>(s.shadow.lesions.size()); ++i)
-      if (ImGui::Selectable(s.shadow.lesions[i].name.c_str(), i == panel_.lesion)) panel_.lesion = i;
+  panel_.lesion = std::clamp(panel_.lesion, 0, static_cast<int>(s.model->lesions.size()) - 1);
+  if (ImGui::BeginCombo("lesion", s.model->lesions[panel_.lesion].name.c_str())) {
+    for (int i = 0; i < static_cast<int>(s.model->lesions.size()); ++i)
+      if (ImGui::Selectable(s.model->lesions[i].name.c_str(), i == panel_.lesion)) panel_.lesion = i;
     ImGui::EndCombo();
   }
   // The sliders show the UI's copy; each change goes to the servo thread as a ParamChange.
   const auto lesion = static_cast<int16_t>(panel_.lesion);
-  const Material& m = s.shadow.materials[s.shadow.lesions[panel_.lesion].material];
+  const Material& m = s.shadow.materials[s.model->lesions[panel_.lesion].material];
   using F = ParamChange::Field;
   const auto edit = [&](const char* label, F field, double value, double lo, double hi, const char* format,
                         bool log) {
@@ -360,7 +360,7 @@ void ViewerApp::save_scene() {
   Session& s = *session_;
   // Every lesion's material as the panel holds it.
   std::vector<LesionMaterialEdit> edits;
-  for (const LesionModel& lesion : s.shadow.lesions)
+  for (const LesionModel& lesion : s.model->lesions)
     edits.push_back({lesion.name, s.shadow.materials[lesion.material]});
   const bool builtin = !builtin_scene_yaml(s.source).empty();
   const std::filesystem::path target =

@@ -69,8 +69,8 @@ SceneView::SceneView(const Model& model) : model_(model) {
       host_tissue_[o] = own_tissue_[object.host];
     if (object.kind == ObjectKind::Soft && !object.tree.leaf_nodes.empty()) {
       const SphereNode& leaf = object.tree.nodes[object.tree.leaf_nodes.front()];
-      if (leaf.material < model.materials.size())
-        soft_stiffness_[o] = model.materials[leaf.material].stiffness;
+      if (leaf.material < model.defaults.materials.size())
+        soft_stiffness_[o] = model.defaults.materials[leaf.material].stiffness;
     }
   }
 

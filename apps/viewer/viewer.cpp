@@ -173,12 +173,12 @@ void ViewerApp::poll_build() {
 
 std::unique_ptr<Device> ViewerApp::make_session_device(const Model& model) {
   // The mouse and replay devices are composed here; the rest come from the device factory.
-  if (options_.device == "mouse") return std::make_unique<MouseDevice>(model.tool_home, model.limits);
+  if (options_.device == "mouse") return std::make_unique<MouseDevice>(model.tool_home, model.defaults.limits);
   const std::string_view spec(options_.device);
   if (spec.starts_with("replay:")) return make_replay_device(std::string(spec.substr(7)));
   DeviceOptions device_options;
   device_options.home = model.tool_home;
-  device_options.limits = model.limits;
+  device_options.limits = model.defaults.limits;
   return make_device(options_.device, device_options);
 }
 
@@ -187,7 +187,7 @@ std::string ViewerApp::parameters_json(const Model& model) const {
   JsonWriter json;
   json.begin_object().key("lesions").begin_array();
   for (const LesionModel& lesion : model.lesions) {
-    const Material& m = model.materials[lesion.material];
+    const Material& m = model.defaults.materials[lesion.material];
     json.begin_object()
         .field("name", lesion.name)
         .field("mu_s", m.mu_s)
@@ -217,8 +217,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   s->mouse = dynamic_cast<MouseDevice*>(s->device.get());
   s->replay = dynamic_cast<ReplayDevice*>(s->device.get());
   s->device_info = s->device->info();
-  s->shadow.lesions = s->model->lesions;
-  s->shadow.materials = s->model->materials;
+  s->shadow = s->model->defaults;
   s->view = std::make_unique<SceneView>(*s->model);
 
   // The record (--record) covers the first session; a scene change ends it.
@@ -243,7 +242,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   // The view: framed on a new scene, the mouse target at the tool's home.
   if (!same_scene) camera_.frame(s->view->bounds());
   control_.reset(s->model->tool_home);
-  control_.workspace = s->model->limits.workspace;
+  control_.workspace = s->model->defaults.limits.workspace;
   panel_.lesion = 0;
   const std::vector<std::string> names = builtin_scene_names();
   const auto builtin = std::find(names.begin(), names.end(), source);

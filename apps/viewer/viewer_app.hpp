@@ -39,9 +39,9 @@ struct Session {
   std::unique_ptr<Recorder> recorder;
   std::unique_ptr<ServoLoop> servo;
   std::unique_ptr<SceneView> view;
-  /// The lesions and materials as the UI last set them: the servo thread owns the model's, and the
-  /// UI applies each ParamChange it posts to this copy too.
-  Model shadow;
+  /// The parameters as the UI last set them: the servo thread owns the running ones, and the UI
+  /// applies each ParamChange it posts to this copy too.
+  Params shadow;
   DeviceInfo device_info;   ///< what the device said it is when the session started
   double rate_hz = 1000.0;  ///< Hz
   ~Session();

@@ -39,7 +39,7 @@ double border_x(const LesionShape& shape, double surface_z, double y0) {
 
 void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
   say(options, "boundary: building boundary-square");
-  Model model = build_model(load_scene("boundary-square"), options.build);
+  const Model model = build_model(load_scene("boundary-square"), options.build);
   if (model.lesions.empty()) throw Error("boundary-square: the scene has no lesion");
   const LesionModel& lesion = model.lesions.front();
   const Vec3 c = lesion.shape.center;
@@ -57,7 +57,8 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
   double rigid_overlap = 0.0;
   for (const Run& run : runs) {
     // Stiffness of the healthy region and of the caries for this run.
-    for (Material& m : model.materials) m.stiffness = m.lesion == 0 ? run.caries : run.healthy;
+    Params params = model.defaults;
+    for (Material& m : params.materials) m.stiffness = m.lesion == 0 ? run.caries : run.healthy;
     const double x0 = border + run.from, x1 = border + run.to;
     const double dir = x1 > x0 ? 1.0 : -1.0;
     // The explorer is drawn over the surface with its handle leaning back against the motion, so
@@ -69,7 +70,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
     path.to(0.5, at(Vec3(x0, c.y(), press_z), q)).hold(0.3);
     path.to(std::abs(x1 - x0) / kSpeed, at(Vec3(x1, c.y(), press_z), q));
     path.to(0.5, at(Vec3(x1, c.y(), c.z() + 2.0), q));
-    const std::vector<SimSample> samples = simulate(model, path.trajectory(), options.rate_hz);
+    const std::vector<SimSample> samples = simulate(model, params, path.trajectory(), options.rate_hz);
     rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // Tangential force before and after the border, by the haptic tool's travel; hooking.

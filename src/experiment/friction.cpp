@@ -26,7 +26,7 @@ struct Run {
 
 void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
   say(options, "friction: building friction-block");
-  Model model = build_model(load_scene("friction-block"), options.build);
+  const Model model = build_model(load_scene("friction-block"), options.build);
   if (model.lesions.empty()) throw Error("friction-block: the scene has no carious top");
   const LesionModel& top = model.lesions.front();
   const Vec3 surface = top.shape.center;  // a point on the carious top, normal +z
@@ -50,12 +50,13 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
   double rigid_overlap = 0.0;
   for (const Run& run : runs) {
     // The carious top's materials get this run's coefficients.
-    for (Material& m : model.materials) {
+    Params params = model.defaults;
+    for (Material& m : params.materials) {
       if (m.lesion != 0) continue;
       m.mu_s = run.mu_s;
       m.mu_d = run.mu_d;
     }
-    const std::vector<SimSample> samples = simulate(model, path.trajectory(), options.rate_hz);
+    const std::vector<SimSample> samples = simulate(model, params, path.trajectory(), options.rate_hz);
     rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
 
     // The signal: F_x over the slide, the slip events (saw-tooth drops).

@@ -37,7 +37,7 @@ void run_insertion(const ExperimentOptions& options, JsonWriter& summary) {
   const Model model = build_model(load_scene("insertion-blocks"), options.build);
   if (model.lesions.empty()) throw Error("insertion-blocks: the scene has no lesion");
   const LesionModel& lesion = model.lesions.front();
-  const Material& caries = model.materials[lesion.material];
+  const Material& caries = model.defaults.materials[lesion.material];
   const double top = lesion.shape.center.z();
   const double r_tip = model.tool.tip_radius;
   const Quat upright = Quat::Identity();  // tip down, working end and shank out over the healthy cube
@@ -95,7 +95,7 @@ void run_insertion(const ExperimentOptions& options, JsonWriter& summary) {
             "t,haptic_apex_depth,graphic_apex_depth,depth,f_z,f_norm,contacts,phase,state", rows, states);
 
   summary.field("experiment", "insertion").field("paper", "Fig. 14, §5.1");
-  summary.field("k_e", caries.k_e).field("k_c", caries.k_c.at(0.0)).field("k_p", model.limits.max_stiffness);
+  summary.field("k_e", caries.k_e).field("k_c", caries.k_c.at(0.0)).field("k_p", model.defaults.limits.max_stiffness);
   summary.field("f_p_star", caries.f_p_star).field("f_e_star", caries.f_e_star);
   summary.key("phases").begin_array();
   for (int i = 0; i < 6; ++i) {

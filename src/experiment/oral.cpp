@@ -121,7 +121,7 @@ Trajectory probe_trajectory(const Model& model, const LesionModel& lesion, const
   const Vec3 axis = q * Vec3::UnitZ();  // toward the handle; the tip goes in along -axis
   const Vec3 s = lesion.shape.center;
   const double r_tip = model.tool.tip_radius;
-  const Material& mat = model.materials[lesion.material];
+  const Material& mat = model.defaults.materials[lesion.material];
   Vec3 u, v;
   plane_basis(n, u, v);
   // Tip centre for an apex `depth` along the axis below the surface point `p` (mm).
@@ -149,7 +149,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
   double rigid_overlap = 0.0;
   for (std::size_t l = 0; l < model.lesions.size(); ++l) {
     const LesionModel& lesion = model.lesions[l];
-    const Material& mat = model.materials[lesion.material];
+    const Material& mat = model.defaults.materials[lesion.material];
     double push_start = 0.0, push_end = 0.0;
     const Posture posture = best_posture(model, lesion);
     const Trajectory trajectory = probe_trajectory(model, lesion, posture.q, &push_start, &push_end);

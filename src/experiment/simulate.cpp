@@ -10,6 +10,11 @@ namespace cariesim {
 
 std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory, double rate_hz,
                                 const std::function<void(const SimSample&)>& on_step) {
+  return simulate(model, model.defaults, trajectory, rate_hz, on_step);
+}
+
+std::vector<SimSample> simulate(const Model& model, const Params& params, const Trajectory& trajectory,
+                                double rate_hz, const std::function<void(const SimSample&)>& on_step) {
   if (trajectory.empty()) throw Error("simulate: the trajectory is empty");
   if (!(rate_hz >= 1.0 && rate_hz <= 100000.0))
     throw Error("simulate: servo rate " + std::to_string(rate_hz) + " Hz is outside [1, 100000]");
@@ -24,7 +29,7 @@ std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory
     const double t = trajectory.start() + static_cast<double>(i) * dt;
     SimSample sample;
     sample.t = t - trajectory.start();
-    sample.out = step(model, state, HapticInput{cursor.at(t), dt});
+    sample.out = step(model, params, state, HapticInput{cursor.at(t), dt});
     if (on_step) on_step(sample);
     samples.push_back(sample);
   }

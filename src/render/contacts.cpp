@@ -30,7 +30,7 @@ Pose apply_displacement(const Pose& g, const Vec6& d) {
 
 void set_leaf_margins(const Model& m, StateImpl& s, double trans, double rot) {
   for (std::size_t i = 0; i < s.tool_leaves; ++i)
-    s.leaf_margin[i] = trans + rot * s.leaf_reach[i] + m.params.contact_margin;
+    s.leaf_margin[i] = trans + rot * s.leaf_reach[i] + m.settings.contact_margin;
 }
 
 bool collect_pairs(const Model& m, StateImpl& s, const Pose& g, ObjectMask mask) {
@@ -63,8 +63,9 @@ bool collect_pairs(const Model& m, StateImpl& s, const Pose& g, ObjectMask mask)
   for (std::size_t k = 0; k < found; ++k) {
     const bool same = k > 0 && s.contacts[order[k]].tool_leaf == s.contacts[order[k - 1]].tool_leaf &&
                       s.contacts[order[k]].object == s.contacts[order[k - 1]].object;
-    s.contact_rank[k] = same ? static_cast<uint16_t>(std::min<int>(s.contact_rank[k - 1] + 1, kStepPairsPerToolLeaf))
-                             : uint16_t{0};
+    s.contact_rank[k] =
+        same ? static_cast<uint16_t>(std::min<int>(s.contact_rank[k - 1] + 1, kStepPairsPerToolLeaf))
+             : uint16_t{0};
     ++per_rank[s.contact_rank[k]];
   }
   int keep_below = 0, total = 0;
@@ -96,7 +97,7 @@ PairGeometry pair_geometry(const Model& m, const StateImpl& s, const Pose& g, co
   // (the healthy tree's walls there are): its leaves are measured against their exposed patches
   // only, and a leaf with nothing but wall patches is marked `wall` and ignored.
   const Vec3 d = c_t - c_o;
-  if (!m.materials[node.material].rigid() && node.leaf < tree.leaf_tangents.size()) {
+  if (!m.defaults.materials[node.material].rigid() && node.leaf < tree.leaf_tangents.size()) {
     const LeafTangents& t = tree.leaf_tangents[node.leaf];
     const bool lesion = m.objects[p.object].lesion >= 0;
     int best = -1;
@@ -142,7 +143,7 @@ void build_regions(const Model& m, StateImpl& s, const Pose& g) {
     const int i = s.order[k];
     const PairRef& p = s.pairs[i];
     const SphereNode& node = m.objects[p.object].tree.nodes[p.object_node];
-    const Material& mat = m.materials[node.material];
+    const Material& mat = m.defaults.materials[node.material];  // rigidity is the Model's
     s.pair_region[i] = -1;
     if (s.geometry[i].wall) continue;  // see pair_geometry
     const Vec3& local = s.leaf_local[p.tool_leaf];
@@ -193,7 +194,7 @@ StateImpl::RowGroup* row_group(StateImpl& s, const PairRef& p, const Region& reg
 
 }  // namespace
 
-int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& flags) {
+int add_contact_rows(const Model& m, const Params& params, StateImpl& s, bool hold_only, uint32_t& flags) {
   int added = 0;
   ++s.row_stamp;
   const auto add_row = [&](int i, int r, StateImpl::RowGroup* group) {
@@ -203,7 +204,7 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     row.a.head<3>() = geo.normal;
     row.a.tail<3>() = geo.lever.cross(geo.normal);
     row.b = -geo.gap;
-    const Material& mat = m.materials[m.objects[p.object].tree.nodes[p.object_node].material];
+    const Material& mat = params.materials[m.objects[p.object].tree.nodes[p.object_node].material];
     if (s.regions[r].compliant) {
       row.compliance = 1.0 / mat.stiffness;
     } else if (hold_only) {
@@ -252,7 +253,8 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     if (group != nullptr && !p.forced) {
       bool similar = false;
       for (int j = 0; j < group->count; ++j)
-        similar = similar || s.geometry[s.meta[group->rows[j]].pair].normal.dot(s.geometry[i].normal) > kRigidNormalCos;
+        similar = similar ||
+                  s.geometry[s.meta[group->rows[j]].pair].normal.dot(s.geometry[i].normal) > kRigidNormalCos;
       if (similar || group->count >= kMaxRowsPerLeafObject) continue;
     }
     if (!add_row(i, r, group)) return added;
@@ -272,7 +274,8 @@ int add_contact_rows(const Model& m, StateImpl& s, bool hold_only, uint32_t& fla
     double shallowest = std::numeric_limits<double>::infinity();
     for (int j = 0; j < group.count; ++j) {
       const PairGeometry& geo = s.geometry[group.rows[j]];
-      if (geo.gap < 0.0 && (!planar || std::isfinite(geo.lateral))) shallowest = std::min(shallowest, -geo.gap);
+      if (geo.gap < 0.0 && (!planar || std::isfinite(geo.lateral)))
+        shallowest = std::min(shallowest, -geo.gap);
     }
     const int electors = group.count;
     const std::array<int16_t, 3> pairs = group.rows;
@@ -301,7 +304,7 @@ double recheck_rigid(const Model& m, StateImpl& s, const Pose& g, ObjectMask mas
   const ObjectMask rigid = mask & s.rigid_mask;
   s.placed.place(g, 0.0);
   const ClosestPair worst = closest(s.placed, m.objects, rigid, 0.0);
-  if (!(worst.gap < -m.params.rigid_tolerance)) return std::isfinite(worst.gap) ? worst.gap : 0.0;
+  if (!(worst.gap < -m.settings.rigid_tolerance)) return std::isfinite(worst.gap) ? worst.gap : 0.0;
 
   // Overlaps beyond the tolerance: bring every such pair into the list.
   std::fill(s.leaf_margin.begin(), s.leaf_margin.end(), 0.0);
@@ -310,7 +313,7 @@ double recheck_rigid(const Model& m, StateImpl& s, const Pose& g, ObjectMask mas
   collide(s.placed, m.objects, rigid, s.contacts, kStepPairsPerToolLeaf);
   for (std::size_t c = 0; c < s.contacts.size() && s.pair_count < kMaxPairs; ++c) {
     const Contact& con = s.contacts[c];
-    if (!(con.gap < -m.params.rigid_tolerance)) continue;
+    if (!(con.gap < -m.settings.rigid_tolerance)) continue;
     bool known = false;
     for (int i = 0; i < s.pair_count && !known; ++i) {
       const PairRef& p = s.pairs[i];

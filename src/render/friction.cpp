@@ -16,7 +16,7 @@ namespace cariesim::detail {
 
 namespace {
 
-constexpr double kMinNormalForce = 1e-6;  // N: below this a contact carries no friction
+constexpr double kMinNormalForce = 1e-6;     // N: below this a contact carries no friction
 constexpr double kRigidSlipStiffness = 1e3;  // N/mm: a rigid row's share of the slip stiffness
 
 // An orthonormal tangent pair for a unit normal.
@@ -72,8 +72,7 @@ double cone_measure(double f_u, double f_v, double mu_u, double mu_v) {
 
 }  // namespace
 
-void add_friction_rows(const Model& m, StateImpl& s, const Pose& g, uint32_t& flags) {
-  (void)m;
+void add_friction_rows(StateImpl& s, const Pose& g, uint32_t& flags) {
   for (int k = 0; k < kMaxAnchors; ++k) {
     FrictionAnchor& a = s.anchors[k];
     a.rows[0] = a.rows[1] = -1;
@@ -105,13 +104,13 @@ void add_friction_rows(const Model& m, StateImpl& s, const Pose& g, uint32_t& fl
         return;
       }
       a.rows[j] = static_cast<int8_t>(s.problem.row_count - 1);
-      s.meta[s.problem.row_count - 1] = RowMeta{RowKind::Friction, static_cast<int16_t>(r),
-                                                static_cast<int16_t>(k), -1};
+      s.meta[s.problem.row_count - 1] =
+          RowMeta{RowKind::Friction, static_cast<int16_t>(r), static_cast<int16_t>(k), -1};
     }
   }
 }
 
-int slip_anchors(const Model& m, StateImpl& s, const Pose& g, const Mat6& G, int& slipped) {
+int slip_anchors(const Params& p, StateImpl& s, const Pose& g, const Mat6& G, int& slipped) {
   int changed = 0;
   for (FrictionAnchor& a : s.anchors) {
     if (!a.active || a.rows[0] < 0 || a.rows[1] < 0) continue;
@@ -124,7 +123,7 @@ int slip_anchors(const Model& m, StateImpl& s, const Pose& g, const Mat6& G, int
       continue;
     }
     const Vec3 f_t = s.result.lambda[a.rows[0]] * a.tangents[0] + s.result.lambda[a.rows[1]] * a.tangents[1];
-    const Cone cone = cone_of(m.materials[reg.material], reg.normal);
+    const Cone cone = cone_of(p.materials[reg.material], reg.normal);
     const double f_u = f_t.dot(cone.u);
     const double f_v = f_t.dot(cone.v);
     // Inside the static cone: stick.
@@ -156,10 +155,10 @@ int slip_anchors(const Model& m, StateImpl& s, const Pose& g, const Mat6& G, int
   return changed;
 }
 
-void create_anchors(const Model& m, StateImpl& s, const Pose& g) {
+void create_anchors(const Params& p, StateImpl& s, const Pose& g) {
   for (int r = 0; r < s.region_count; ++r) {
     const Region& reg = s.regions[r];
-    if (!m.materials[reg.material].frictional() || reg.normal_force <= kMinNormalForce) continue;
+    if (!p.materials[reg.material].frictional() || reg.normal_force <= kMinNormalForce) continue;
     bool anchored = false;
     for (const FrictionAnchor& a : s.anchors)
       anchored = anchored || (a.active && a.object == reg.object &&

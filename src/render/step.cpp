@@ -16,17 +16,20 @@ using namespace detail;
 
 const char* state_name(InteractionState s) {
   switch (s) {
-    case InteractionState::Free: return "free";
-    case InteractionState::Sliding: return "sliding";
-    case InteractionState::Inserting: return "inserting";
-    case InteractionState::Extracting: return "extracting";
+    case InteractionState::Free:
+      return "free";
+    case InteractionState::Sliding:
+      return "sliding";
+    case InteractionState::Inserting:
+      return "inserting";
+    case InteractionState::Extracting:
+      return "extracting";
   }
   return "free";
 }
 
 // Model-derived constants and scratch memory, reserved once.
-StateImpl::StateImpl(const Model& model)
-    : placed(model.tool.tree), contacts(model.capacities.contacts) {
+StateImpl::StateImpl(const Model& model) : placed(model.tool.tree), contacts(model.capacities.contacts) {
   object_count = model.objects.size();
   if (object_count > 64) throw Error("model has " + std::to_string(object_count) + " objects; at most 64");
   tool_leaves = model.tool.tree.leaf_count();
@@ -38,7 +41,7 @@ StateImpl::StateImpl(const Model& model)
     const SphereTree& tree = model.objects[i].tree;
     const bool rigid = std::all_of(tree.leaf_nodes.begin(), tree.leaf_nodes.end(), [&](uint32_t node) {
       const uint16_t material = tree.nodes[node].material;
-      return material < model.materials.size() && model.materials[material].rigid();
+      return material < model.defaults.materials.size() && model.defaults.materials[material].rigid();
     });
     if (rigid && !tree.empty()) rigid_mask |= ObjectMask{1} << i;
   }
@@ -76,7 +79,9 @@ State::State(State&&) noexcept = default;
 State& State::operator=(State&&) noexcept = default;
 const Pose& State::graphic() const { return impl_->graphic; }
 InteractionState State::interaction() const { return impl_->interaction; }
-double State::depth() const { return impl_->tunnel.lesion >= 0 ? impl_->tunnel.depth0 + impl_->tunnel.depth : 0.0; }
+double State::depth() const {
+  return impl_->tunnel.lesion >= 0 ? impl_->tunnel.depth0 + impl_->tunnel.depth : 0.0;
+}
 bool State::built_for(const Model& model) const {
   return impl_->object_count == model.objects.size() && impl_->tool_leaves == model.tool.tree.leaf_count();
 }
@@ -84,14 +89,14 @@ bool State::built_for(const Model& model) const {
 namespace {
 
 // The sliding state (paper §3.2): bounded sub-steps toward the haptic tool, friction on caries.
-void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& out) {
+void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, StepOutput& out) {
   Vec6 remaining = config_difference(haptic, s.graphic);
   const double trans = remaining.head<3>().norm();
   const double rot = remaining.tail<3>().norm();
 
   // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand.
   s.placed.place(s.graphic, 0.0);
-  const double reach = trans + rot * s.max_reach + m.params.contact_margin;
+  const double reach = trans + rot * s.max_reach + m.settings.contact_margin;
   if (!std::isfinite(closest(s.placed, m.objects, s.all_mask, reach).gap)) {
     s.graphic = haptic;
     s.region_count = 0;
@@ -106,20 +111,20 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
   // inside its bounds. In steady contact that is the first one.
   SubstepRequest req;
   req.G.setZero();
-  req.G.diagonal() << m.gains.k_trans, m.gains.k_trans, m.gains.k_trans, m.gains.k_rot, m.gains.k_rot,
-      m.gains.k_rot;
+  req.G.diagonal() << p.gains.k_trans, p.gains.k_trans, p.gains.k_trans, p.gains.k_rot, p.gains.k_rot,
+      p.gains.k_rot;
   // The first bound follows the last cycle's motion (a resting or slowly sliding tool needs only a
   // thin collision margin); each further sub-step doubles it up to the trust region.
-  req.trans_bound = std::clamp(2.0 * s.last_motion + 0.005, 0.01, m.params.trust_step);
-  req.rot_bound = std::clamp(2.0 * s.last_rotation + 1e-4, 1e-3, m.params.trust_rotation);
+  req.trans_bound = std::clamp(2.0 * s.last_motion + 0.005, 0.01, m.settings.trust_step);
+  req.rot_bound = std::clamp(2.0 * s.last_rotation + 1e-4, 1e-3, m.settings.trust_rotation);
   Pose g = s.graphic;
   bool reached = false;
   int k = 0;
-  while (!reached && k < std::max(1, m.params.max_substeps)) {
+  while (!reached && k < std::max(1, m.settings.max_substeps)) {
     req.target = config_difference(haptic, g);
-    g = solve_substep(m, s, g, req, out, reached);
-    req.trans_bound = std::min(2.0 * req.trans_bound, m.params.trust_step);
-    req.rot_bound = std::min(2.0 * req.rot_bound, m.params.trust_rotation);
+    g = solve_substep(m, p, s, g, req, out, reached);
+    req.trans_bound = std::min(2.0 * req.trans_bound, m.settings.trust_step);
+    req.rot_bound = std::min(2.0 * req.rot_bound, m.settings.trust_rotation);
     ++k;
   }
   if (!reached) out.flags |= kFlagLagging;
@@ -127,14 +132,14 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
   out.substeps = k;
 
   // New sticking contacts, and what the tip touches (for the penetration criteria next cycle).
-  create_anchors(m, s, g);
+  create_anchors(p, s, g);
   s.tip_lesion = -1;
   bool touching = false;
   for (int r = 0; r < s.region_count; ++r) {
     const Region& reg = s.regions[r];
     const PairGeometry geo = pair_geometry(m, s, g, s.pairs[reg.pair]);
-    touching = touching || geo.gap <= m.params.contact_margin || reg.normal_force > 0.0;
-    const Material& mat = m.materials[reg.material];
+    touching = touching || geo.gap <= m.settings.contact_margin || reg.normal_force > 0.0;
+    const Material& mat = p.materials[reg.material];
     if (!(reg.tip && mat.tissue == Tissue::Caries && mat.lesion >= 0 && geo.gap < 0.0)) continue;
     // How deep the tip is in the caries: the shallowest penetration among the region's surface
     // patches (as for its rows), not the deepest pair, which may measure from a far side face.
@@ -154,24 +159,24 @@ void sliding_step(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& 
 }
 
 // Force and torque from the graphic/haptic difference (paper eqs. 2, 6, 7), bounded by the device.
-void finish_output(const Model& m, StateImpl& s, const Pose& haptic, StepOutput& out) {
-  const bool inside = s.interaction == InteractionState::Inserting ||
-                      s.interaction == InteractionState::Extracting;
-  double k_t = m.gains.k_trans, k_r = m.gains.k_rot;
+void finish_output(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, StepOutput& out) {
+  const bool inside =
+      s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
+  double k_t = p.gains.k_trans, k_r = p.gains.k_rot;
   if (inside) {
-    k_t = m.limits.max_stiffness;                 // eq. 6: k_p^t, the device's maximum stiffness
-    k_r = m.materials[s.tunnel.material].k_theta; // eq. 7
+    k_t = p.limits.max_stiffness;                  // eq. 6: k_p^t, the device's maximum stiffness
+    k_r = p.materials[s.tunnel.material].k_theta;  // eq. 7
   }
   Vec3 force = k_t * (s.graphic.p - haptic.p);
   Vec3 torque = k_r * rotation_vector(s.graphic.q * haptic.q.conjugate());
   if (!force.allFinite()) force.setZero();
   if (!torque.allFinite()) torque.setZero();
-  if (force.norm() > m.limits.max_force) {
-    force *= m.limits.max_force / force.norm();
+  if (force.norm() > p.limits.max_force) {
+    force *= p.limits.max_force / force.norm();
     out.flags |= kFlagForceClamped;
   }
-  if (torque.norm() > m.limits.max_torque) {
-    torque *= m.limits.max_torque / torque.norm();
+  if (torque.norm() > p.limits.max_torque) {
+    torque *= p.limits.max_torque / torque.norm();
     out.flags |= kFlagTorqueClamped;
   }
   out.force = force;
@@ -189,18 +194,20 @@ void finish_output(const Model& m, StateImpl& s, const Pose& haptic, StepOutput&
   out.contact_report_count = 0;
   for (int r = 0; r < s.region_count; ++r) {
     const Region& reg = s.regions[r];
-    const Material& mat = m.materials[reg.material];
+    const Material& mat = p.materials[reg.material];
     out.normal_force += reg.normal_force;
     if (mat.tissue == Tissue::Gingiva || mat.tissue == Tissue::Tongue)
       out.soft_tissue_force = std::max(out.soft_tissue_force, reg.normal_force);
     if (reg.tip && (reg.normal_force > 0.0 || reg.gap < 0.0)) out.tip_tissue = static_cast<int>(mat.tissue);
-    ContactReport report{s.graphic.transform(reg.tool_point_local) - reg.normal * s.leaf_radius[reg.tool_leaf],
-                         reg.normal, reg.normal_force, reg.object, reg.tool_leaf};
+    ContactReport report{
+        s.graphic.transform(reg.tool_point_local) - reg.normal * s.leaf_radius[reg.tool_leaf], reg.normal,
+        reg.normal_force, reg.object, reg.tool_leaf};
     if (out.contact_report_count < kMaxReportedContacts) {
       out.contact_reports[out.contact_report_count++] = report;
     } else {
-      auto weakest = std::min_element(out.contact_reports.begin(), out.contact_reports.end(),
-                                      [](const ContactReport& a, const ContactReport& b) { return a.force < b.force; });
+      auto weakest =
+          std::min_element(out.contact_reports.begin(), out.contact_reports.end(),
+                           [](const ContactReport& a, const ContactReport& b) { return a.force < b.force; });
       if (weakest->force < report.force) *weakest = report;
     }
   }
@@ -210,11 +217,12 @@ void finish_output(const Model& m, StateImpl& s, const Pose& haptic, StepOutput&
 
 }  // namespace
 
-StepOutput step(const Model& m, State& state, const HapticInput& in) {
+StepOutput step(const Model& m, const Params& p, State& state, const HapticInput& in) {
   const auto start = std::chrono::steady_clock::now();
   StepOutput out;
   assert(state.built_for(m) && "state built for another model");
-  if (!state.built_for(m)) {
+  assert(p.materials.size() == m.defaults.materials.size() && "params made for another model");
+  if (!state.built_for(m) || p.materials.size() != m.defaults.materials.size()) {
     out.flags |= kFlagWrongState;
     return out;
   }
@@ -229,17 +237,18 @@ StepOutput step(const Model& m, State& state, const HapticInput& in) {
   }
   haptic.q.normalize();
   const double dt = std::isfinite(in.dt) && in.dt > 0.0 && in.dt <= 0.1 ? in.dt : 1.0 / m.servo_rate;
-  if (s.have_haptic && (haptic.p - s.last_haptic.p).norm() > m.params.max_jump) out.flags |= kFlagJumpLimited;
+  if (s.have_haptic && (haptic.p - s.last_haptic.p).norm() > m.settings.max_jump)
+    out.flags |= kFlagJumpLimited;
 
   const Pose graphic_before = s.graphic;
 
   // The interaction state machine (paper Fig. 4).
   bool inside = s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
-  if (!inside) inside = try_enter_penetration(m, s, haptic);
+  if (!inside) inside = try_enter_penetration(m, p, s, haptic);
   if (inside)
-    penetration_step(m, s, haptic, dt, out);
+    penetration_step(m, p, s, haptic, dt, out);
   else
-    sliding_step(m, s, haptic, out);
+    sliding_step(m, p, s, haptic, out);
 
   const Vec6 moved = config_difference(s.graphic, graphic_before);
   s.last_motion = moved.head<3>().norm();
@@ -247,9 +256,13 @@ StepOutput step(const Model& m, State& state, const HapticInput& in) {
   s.last_haptic = haptic;
   s.have_haptic = true;
   ++s.steps;
-  finish_output(m, s, haptic, out);
+  finish_output(m, p, s, haptic, out);
   out.step_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   return out;
+}
+
+StepOutput step(const Model& m, State& state, const HapticInput& in) {
+  return step(m, m.defaults, state, in);
 }
 
 }  // namespace cariesim

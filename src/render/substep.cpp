@@ -24,13 +24,14 @@ double rigid_clearance(const Model& m, StateImpl& s, const Pose& g, ObjectMask m
 }
 
 // Builds the problem at g0 and solves it; returns the displacement (zero when infeasible).
-Vec6 solve_rows(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out) {
+Vec6 solve_rows(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
+                StepOutput& out) {
   build_regions(m, s, g0);
   s.problem.row_count = 0;
   s.problem.G = req.G;
   s.problem.x_target = req.target;
-  out.contacts = add_contact_rows(m, s, req.hold_only, out.flags);
-  if (req.friction) add_friction_rows(m, s, g0, out.flags);
+  out.contacts = add_contact_rows(m, p, s, req.hold_only, out.flags);
+  if (req.friction) add_friction_rows(s, g0, out.flags);
   if (req.extra != nullptr) req.extra->add(g0, s.problem, s.meta);
   const QpStatus status = s.solver.solve(s.problem, s.result);
   Vec6 d = s.result.x;
@@ -45,24 +46,24 @@ Vec6 solve_rows(const Model& m, StateImpl& s, const Pose& g0, const SubstepReque
 
 }  // namespace
 
-Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRequest& req, StepOutput& out,
-                   bool& reached) {
+Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
+                   StepOutput& out, bool& reached) {
   // Step 1: pairs within reach of this sub-step's largest motion.
   set_leaf_margins(m, s, req.trans_bound, req.rot_bound);
   if (!collect_pairs(m, s, g0, req.mask)) out.flags |= kFlagContactOverflow;
 
-  const double tol = m.params.rigid_tolerance;
-  const int max_passes = m.params.max_rechecks + 2;
+  const double tol = m.settings.rigid_tolerance;
+  const int max_passes = m.settings.max_rechecks + 2;
   bool friction_checked = !req.friction;
   Vec6 d = Vec6::Zero();
   reached = true;
   for (int pass = 0; pass < max_passes; ++pass) {
     // Steps 2-3: rows and solve, then shorten the motion onto the trust region (the feasible set is
     // convex and contains the start, so a shortened solution stays feasible).
-    d = solve_rows(m, s, g0, req, out);
+    d = solve_rows(m, p, s, g0, req, out);
     const double trans = d.head<3>().norm(), rot = d.tail<3>().norm();
-    const double scale = std::min({1.0, trans > 0.0 ? req.trans_bound / trans : 1.0,
-                                   rot > 0.0 ? req.rot_bound / rot : 1.0});
+    const double scale =
+        std::min({1.0, trans > 0.0 ? req.trans_bound / trans : 1.0, rot > 0.0 ? req.rot_bound / rot : 1.0});
     reached = scale >= 1.0;
 
     // Step 4: friction cone, once the motion ends in this sub-step; slipped or released anchors
@@ -70,11 +71,12 @@ Pose solve_substep(const Model& m, StateImpl& s, const Pose& g0, const SubstepRe
     if (reached && !friction_checked) {
       friction_checked = true;
       int slipped = 0;
-      if (slip_anchors(m, s, g0, req.G, slipped) > 0) {
+      if (slip_anchors(p, s, g0, req.G, slipped) > 0) {
         out.slips += slipped;
-        d = solve_rows(m, s, g0, req, out);
+        d = solve_rows(m, p, s, g0, req, out);
         const double t2 = d.head<3>().norm(), r2 = d.tail<3>().norm();
-        const double s2 = std::min({1.0, t2 > 0.0 ? req.trans_bound / t2 : 1.0, r2 > 0.0 ? req.rot_bound / r2 : 1.0});
+        const double s2 =
+            std::min({1.0, t2 > 0.0 ? req.trans_bound / t2 : 1.0, r2 > 0.0 ? req.rot_bound / r2 : 1.0});
         d *= s2;
       }
     } else {

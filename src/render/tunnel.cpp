@@ -23,8 +23,8 @@ namespace cariesim::detail {
 
 namespace {
 
-constexpr double kExitDepth = 1e-6;      // mm: at this depth the probe is out
-constexpr double kBottomRadius = 0.1;    // mm: display radius of the tunnel spheres
+constexpr double kExitDepth = 1e-6;    // mm: at this depth the probe is out
+constexpr double kBottomRadius = 0.1;  // mm: display radius of the tunnel spheres
 
 // Distance along n from p at which the ray leaves the lesion volume (sphere tracing its SDF).
 double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
@@ -42,7 +42,10 @@ double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
   double lo = t_inside, hi = t;
   for (int i = 0; i < 30 && d > 0.0; ++i) {
     const double mid = 0.5 * (lo + hi);
-    if (shape.distance(p + mid * n) < 0.0) lo = mid; else hi = mid;
+    if (shape.distance(p + mid * n) < 0.0)
+      lo = mid;
+    else
+      hi = mid;
   }
   return d > 0.0 ? lo : t;
 }
@@ -104,9 +107,9 @@ struct TunnelRows final : ExtraRows {
 
 }  // namespace
 
-bool try_enter_penetration(const Model& m, StateImpl& s, const Pose& haptic) {
+bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const Pose& haptic) {
   if (s.tip_lesion < 0) return false;
-  const Material& mat = m.materials[s.tip_material];
+  const Material& mat = p.materials[s.tip_material];
   // Eqs. 3-4: F_c = k_e (p_h^t - p_g^{t-1}); F_p = -(F_c·n)n along the tip axis n (tool -z).
   const Vec3 n = -(s.graphic.q * Vec3::UnitZ());
   const double push = (haptic.p - s.graphic.p).dot(n);
@@ -131,16 +134,17 @@ bool try_enter_penetration(const Model& m, StateImpl& s, const Pose& haptic) {
   return true;
 }
 
-void penetration_step(const Model& m, StateImpl& s, const Pose& haptic, double dt, StepOutput& out) {
+void penetration_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, double dt,
+                      StepOutput& out) {
   Tunnel& t = s.tunnel;
-  const Material& mat = m.materials[t.material];
+  const Material& mat = p.materials[t.material];
   const Pose g_prev = s.graphic;
 
   // Eqs. 3-4 and 8: the force along the axis, pushing in (F_p) or pulling out (F_e).
   const double along = (haptic.p - g_prev.p).dot(t.n);
   const double f_p = mat.k_e * std::max(along, 0.0);
   const double f_e = mat.k_e * std::max(-along, 0.0);
-  const double scale = dt / m.params.reference_dt;  // eq. 5 is per 1 ms cycle
+  const double scale = dt / m.settings.reference_dt;  // eq. 5 is per 1 ms cycle
   const double apex_depth = t.depth0 + t.depth;
 
   // Sub-state switches: a strong pull starts extraction, a strong push resumes insertion.
@@ -170,8 +174,8 @@ void penetration_step(const Model& m, StateImpl& s, const Pose& haptic, double d
   SubstepRequest req;
   req.target = config_difference(haptic, g_prev);
   req.G.setZero();
-  req.G.diagonal() << m.limits.max_stiffness, m.limits.max_stiffness, m.limits.max_stiffness,
-      mat.k_theta, mat.k_theta, mat.k_theta;
+  req.G.diagonal() << p.limits.max_stiffness, p.limits.max_stiffness, p.limits.max_stiffness, mat.k_theta,
+      mat.k_theta, mat.k_theta;
   req.trans_bound = std::max(upper - t.depth, t.depth - lower) + 1e-6;
   req.rot_bound = 1e-6;
   req.mask = s.all_mask & ~(ObjectMask{1} << t.object);
@@ -179,7 +183,7 @@ void penetration_step(const Model& m, StateImpl& s, const Pose& haptic, double d
   req.hold_only = true;
   req.extra = &rows;
   bool reached = false;
-  s.graphic = solve_substep(m, s, g_prev, req, out, reached);
+  s.graphic = solve_substep(m, p, s, g_prev, req, out, reached);
   t.depth = std::max(0.0, (s.graphic.p - t.entry).dot(t.n));
   out.substeps = 1;
 

@@ -283,12 +283,12 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
     m.stiffness = o.material.stiffness;
     m.mu_s = o.material.mu_s;
     m.mu_d = o.material.mu_d;
-    healthy_material[i] = static_cast<uint16_t>(model.materials.size());
-    model.materials.push_back(m);
+    healthy_material[i] = static_cast<uint16_t>(model.defaults.materials.size());
+    model.defaults.materials.push_back(m);
     if (o.enamel_thickness) {
       m.tissue = Tissue::Dentin;
-      dentin_material[i] = static_cast<int>(model.materials.size());
-      model.materials.push_back(m);
+      dentin_material[i] = static_cast<int>(model.defaults.materials.size());
+      model.defaults.materials.push_back(m);
     }
   }
   std::vector<uint16_t> lesion_material(scene.lesions.size());
@@ -297,8 +297,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
     Material m = l.material;
     m.lesion = static_cast<int16_t>(k);
     if (!l.world_frame) m.aniso_dir = scene.objects[static_cast<std::size_t>(l.object)].pose.q * m.aniso_dir;
-    lesion_material[k] = static_cast<uint16_t>(model.materials.size());
-    model.materials.push_back(m);
+    lesion_material[k] = static_cast<uint16_t>(model.defaults.materials.size());
+    model.defaults.materials.push_back(m);
   }
   model.lesions.resize(scene.lesions.size());
 
@@ -429,7 +429,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
       object.surface_only = std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(),
                                         [&](uint32_t node) {
                                           const uint16_t mat = object.tree.nodes[node].material;
-                                          return mat < model.materials.size() && model.materials[mat].rigid();
+                                          return mat < model.defaults.materials.size() && model.defaults.materials[mat].rigid();
                                         });
       model.objects.push_back(std::move(object));
       model.display.push_back(std::move(display));
@@ -451,8 +451,8 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   }
 
   // Device, coupling, rate.
-  model.limits = scene.limits;
-  model.gains = scene.gains;
+  model.defaults.limits = scene.limits;
+  model.defaults.gains = scene.gains;
   model.servo_rate = scene.servo_rate;
   model.scene_hash = scene_key.value();
 

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/render/params.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "yaml_reader.hpp"
@@ -27,9 +28,7 @@ namespace {
 constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a scene
 constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
 constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
-constexpr double kMaxStiffness = 1e6;       // N/mm
 constexpr double kDefaultCariesStiffness = 4.0;  // N/mm, sliding stiffness of caries without a preset
-constexpr double kMaxFriction = 10.0;       // friction coefficients
 constexpr int kMaxParts = 64;               // collision objects a model can hold (ObjectMask)
 
 constexpr double kDegree = std::numbers::pi / 180.0;
@@ -386,9 +385,15 @@ void read_lesion_material(const Reader& r, const YAML::Node& node, const std::st
     m.mu_d_along = r.number_in(a.require("mu_d"), a.sub("mu_d"), 0.0, kMaxFriction, "");
   }
   if (const auto n = f.get("k_c"); n.IsDefined()) m.k_c = read_kc(r, n, f.sub("k_c"), l.shape.depth);
-  f.positive("f_p_star", m.f_p_star, 1000.0, "N");
-  f.positive("f_e_star", m.f_e_star, 1000.0, "N");
-  f.positive("k_theta", m.k_theta, 1e6, "N·mm/rad");
+  f.positive("f_p_star", m.f_p_star, kMaxThreshold, "N");
+  f.positive("f_e_star", m.f_e_star, kMaxThreshold, "N");
+  f.positive("k_theta", m.k_theta, kMaxStiffness, "N·mm/rad");
+  // The rules every source of material values follows (render/params.hpp), at the field they name.
+  if (const ParamProblem problem = check_material(m)) {
+    const std::string field(problem.field);
+    const std::string top = field.substr(0, field.find('.'));
+    r.fail(f.has(top) ? f.get(top) : node, f.sub(field), problem.rule);
+  }
 }
 
 // One entry of `lesions` (objects are already known).
@@ -504,6 +509,10 @@ void read_device(const Reader& r, const YAML::Node& node, const std::string& pat
     if (!(lo.array() < hi.array()).all())
       r.fail(n, f.sub("workspace"), "min must be below max on every axis");
     d.workspace = Eigen::AlignedBox3d(lo, hi);
+  }
+  if (const ParamProblem problem = check_limits(d)) {
+    const std::string field(problem.field);
+    r.fail(f.has(field) ? f.get(field) : node, f.sub(field), problem.rule);
   }
 }
 

@@ -78,7 +78,7 @@ void TimingHistogram::reset() {
   max_.store(0.0, std::memory_order_relaxed);
 }
 
-ServoLoop::ServoLoop(Model& model, Device& device, const ServoOptions& options)
+ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& options)
     : model_(model), device_(device), options_(options), dt_(0.0), period_ns_(0) {
   if (!(options.rate_hz > 0.0 && options.rate_hz <= kMaxRateHz))
     throw Error("servo rate " + std::to_string(options.rate_hz) + " Hz is outside (0, 10000]");
@@ -87,6 +87,7 @@ ServoLoop::ServoLoop(Model& model, Device& device, const ServoOptions& options)
   // The safety limits: the lower of the options' and the device's.
   SafetyParams params = options.safety;
   const DeviceLimits limits = device.info().limits;
+  params_ = with_device_limits(model.defaults, limits);
   params.max_force = std::min(params.max_force, limits.max_force);
   params.max_torque = std::min(params.max_torque, limits.max_torque);
   safety_ = ForceSafety(params);
@@ -181,7 +182,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
       applied = std::isfinite(change.value) && change.value >= 0.0 && change.value <= 1.0;
       if (applied) safety_.set_force_scale(change.value);
     } else {
-      applied = apply_param_change(model_, change);
+      applied = apply_param_change(params_, change);
     }
     if (!applied) bump(rejected_changes_);
   }
@@ -191,7 +192,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   if (input.valid && input.pose.finite()) last_good_ = input.pose;
 
   // Step the engine with the fixed dt, filter the wrench, render it.
-  const StepOutput out = step(model_, *state_, HapticInput{last_good_, dt_});
+  const StepOutput out = step(model_, params_, *state_, HapticInput{last_good_, dt_});
   Vec3 force = out.force;
   Vec3 torque = out.torque;
   safety_.filter(force, torque, input, t);

@@ -95,7 +95,7 @@ struct Bridge {
     UdpOptions o;
     o.port = 0;
     o.home = m.tool_home;
-    o.limits = m.limits;
+    o.limits = m.defaults.limits;
     // A transit timeout far above any scheduling stall of a loaded test machine, so only the packet
     // sent as stale on purpose (2 s old) is judged stale.
     o.timeout = 0.5;

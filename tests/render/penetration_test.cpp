@@ -25,7 +25,7 @@ const Model& blocks() {
   return model;
 }
 
-Material& caries_of(Model& m) { return m.materials[m.lesions.front().material]; }
+Material& caries_of(Model& m) { return m.defaults.materials[m.lesions.front().material]; }
 
 double top_of(const Model& m) { return m.lesions.front().shape.center.z(); }
 
@@ -182,8 +182,8 @@ TEST(Penetration, RandomSessionStaysStable) {
     const ClosestPair c = closest(placed, m.objects, rigid, 0.0);
     if (std::isfinite(c.gap)) worst_overlap = std::max(worst_overlap, -c.gap);
   }
-  EXPECT_LE(largest_force, m.limits.max_force + 1e-9);
-  EXPECT_LE(worst_overlap, m.params.rigid_tolerance + 1e-9);
+  EXPECT_LE(largest_force, m.defaults.limits.max_force + 1e-9);
+  EXPECT_LE(worst_overlap, m.settings.rigid_tolerance + 1e-9);
   EXPECT_GE(entries, 20);
   EXPECT_GE(exits, 20);
 }

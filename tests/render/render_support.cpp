@@ -52,12 +52,12 @@ CollisionObject object(const std::string& name, const std::vector<LeafSphere>& l
 Model model(std::vector<CollisionObject> objects, std::vector<Material> materials) {
   Model m;
   m.objects = std::move(objects);
-  m.materials = std::move(materials);
+  m.defaults.materials = std::move(materials);
   m.tool.tree = build_tool_tree(straight_probe());
   m.tool.tip_radius = 0.05;
   m.tool_home = probe_at(Vec3(0, 0, 50));
-  m.gains.k_trans = 1.0;
-  m.gains.k_rot = 150.0;
+  m.defaults.gains.k_trans = 1.0;
+  m.defaults.gains.k_rot = 150.0;
   return m;
 }
 

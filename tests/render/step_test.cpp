@@ -53,10 +53,10 @@ TEST(Step, RigidPressGivesCouplingStiffnessTimesDepth) {
     // Above a sphere's tangent point the union's surface is exactly z = 0.
     const StepOutput out = run(m, s, probe_at(Vec3(0, 0, kTipRadius - depth)), 40);
     EXPECT_EQ(out.state, InteractionState::Sliding);
-    EXPECT_NEAR(out.force.z(), m.gains.k_trans * depth, 2e-3) << depth;
+    EXPECT_NEAR(out.force.z(), m.defaults.gains.k_trans * depth, 2e-3) << depth;
     EXPECT_NEAR(out.force.head<2>().norm(), 0.0, 2e-3) << depth;
     EXPECT_NEAR(out.torque.norm(), 0.0, 1e-6) << depth;
-    EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.params.rigid_tolerance);
+    EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance);
   }
 }
 
@@ -67,7 +67,7 @@ TEST(Step, CompliantPressGivesSeriesStiffness) {
   State s(m, probe_at(Vec3(0, 0, 1)));
   const double depth = 0.6;
   const StepOutput out = run(m, s, probe_at(Vec3(0, 0, kTipRadius - depth)), 40);
-  const double series = m.gains.k_trans * k / (m.gains.k_trans + k);
+  const double series = m.defaults.gains.k_trans * k / (m.defaults.gains.k_trans + k);
   EXPECT_NEAR(out.force.z(), series * depth, 3e-3);
   // The graphic tool sank by the tissue's share of the depth.
   EXPECT_NEAR(kTipRadius - out.graphic.p.z(), series * depth / k, 3e-3);
@@ -84,7 +84,7 @@ TEST(Step, FrictionlessSlidingHasNoTangentialForce) {
     if (i < 50) continue;
     ASSERT_GT(out.force.z(), 0.4);
     worst_ratio = std::max(worst_ratio, std::abs(out.force.x()) / out.force.z());
-    ASSERT_GE(test::rigid_clearance(m, out.graphic), -m.params.rigid_tolerance) << i;
+    ASSERT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance) << i;
   }
   // The slab's spheres (R = 2 mm, 0.25 mm apart) tilt the normal by at most ~s/(2R).
   EXPECT_LT(worst_ratio, 0.07);
@@ -113,13 +113,13 @@ TEST(Step, JumpIsFlaggedBoundedAndDoesNotPenetrate) {
   StepOutput out = step(m, s, HapticInput{probe_at(Vec3(0, 0, -49)), 0.001});
   EXPECT_TRUE(out.flags & kFlagJumpLimited);
   for (int i = 0; i < 200; ++i) {
-    EXPECT_LE(out.force.norm(), m.limits.max_force + 1e-9);
+    EXPECT_LE(out.force.norm(), m.defaults.limits.max_force + 1e-9);
     EXPECT_TRUE(out.force.allFinite());
-    EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.params.rigid_tolerance);
+    EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance);
     out = step(m, s, HapticInput{probe_at(Vec3(0, 0, -49)), 0.001});
   }
   EXPECT_TRUE(out.flags & kFlagForceClamped);
-  EXPECT_NEAR(out.force.norm(), m.limits.max_force, 1e-9);
+  EXPECT_NEAR(out.force.norm(), m.defaults.limits.max_force, 1e-9);
 }
 
 // A wedge: the tool squeezed between two rigid walls closing in from both sides, pushed down into
@@ -143,8 +143,8 @@ TEST(Step, WedgeStaysFiniteAndOutsideRigidTissue) {
     const StepOutput out = step(m, s, HapticInput{probe_at(Vec3(0.01 * std::sin(i * 0.3), 0, z)), 0.001});
     ASSERT_TRUE(out.force.allFinite());
     ASSERT_TRUE(out.graphic.p.allFinite());
-    ASSERT_LE(out.force.norm(), m.limits.max_force + 1e-9);
-    ASSERT_GE(test::rigid_clearance(m, out.graphic), -m.params.rigid_tolerance) << i;
+    ASSERT_LE(out.force.norm(), m.defaults.limits.max_force + 1e-9);
+    ASSERT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance) << i;
   }
 }
 

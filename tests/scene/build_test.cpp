@@ -93,7 +93,7 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
   EXPECT_DOUBLE_EQ(lesion.authored_depth, 1.0);
   EXPECT_NEAR(lesion.shape.center.z(), 3.0, 1e-6);
   EXPECT_NEAR(lesion.shape.center.x(), 1.0, 1e-9);
-  const Material& caries = model.materials.at(lesion.material);
+  const Material& caries = model.defaults.materials.at(lesion.material);
   EXPECT_EQ(caries.tissue, Tissue::Caries);
   EXPECT_EQ(caries.lesion, 0);
   EXPECT_DOUBLE_EQ(caries.mu_s, caries_preset(CariesPreset::Severe).mu_s);
@@ -106,7 +106,7 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
   int dentin = 0;
   const SphereTree& healthy = model.objects[0].tree;
   for (std::size_t i = 0; i < healthy.leaf_nodes.size(); ++i) {
-    const Material& m = model.materials.at(healthy.nodes[healthy.leaf_nodes[i]].material);
+    const Material& m = model.defaults.materials.at(healthy.nodes[healthy.leaf_nodes[i]].material);
     ASSERT_TRUE(m.tissue == Tissue::Enamel || m.tissue == Tissue::Dentin);
     EXPECT_TRUE(m.rigid());
     (m.tissue == Tissue::Enamel ? enamel : dentin)++;
@@ -144,7 +144,7 @@ TEST_F(BuildTest, ObjectFrameAnisotropyIsRotatedIntoTheWorld) {
   yaml.replace(yaml.find("pose: {position: [1, 2, 3]}"), 27,
                "pose: {position: [1, 2, 3], rotation: {axis: [0, 0, 1], angle: 90}}");
   const Model model = build_model(parse_scene(yaml, "b.yaml"), options());
-  const Material& m = model.materials.at(model.lesions.at(0).material);
+  const Material& m = model.defaults.materials.at(model.lesions.at(0).material);
   EXPECT_TRUE(m.aniso_dir.isApprox(Vec3::UnitY(), 1e-12));
 }
 

@@ -267,7 +267,7 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
   EXPECT_THAT(error_of("objects:\n  - {name: a, shape: {type: cuboid, size: [10, -2, 5]}}\n"),
               HasSubstr("objects[0].shape.size: edge lengths must be > 0"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {mu_s: -0.1}\n"),
-              HasSubstr("test.yaml:4:22: objects[0].material.mu_s: -0.1 is out of range [0, 10]"));
+              HasSubstr("test.yaml:4:22: objects[0].material.mu_s: -0.1 is out of range [0, 5]"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {mu_d: .nan}\n"),
               HasSubstr("objects[0].material.mu_d: expected a number, got '.nan'"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    material: {stiffness: soft}\n"),

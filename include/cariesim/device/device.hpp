@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "cariesim/common/math.hpp"
-#include "cariesim/render/model.hpp"
+#include "cariesim/device/limits.hpp"
 #include "cariesim/render/step.hpp"
 
 namespace cariesim {

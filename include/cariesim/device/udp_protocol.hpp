@@ -15,7 +15,7 @@
 #include <string_view>
 
 #include "cariesim/common/math.hpp"
-#include "cariesim/render/model.hpp"
+#include "cariesim/device/limits.hpp"
 
 namespace cariesim::bridge {
 

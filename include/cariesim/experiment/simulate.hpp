@@ -19,7 +19,10 @@ struct SimSample {
 
 /// Runs the trajectory from its start to its end at `rate_hz` (the pose between samples is
 /// interpolated: linear position, slerp rotation). The graphic tool starts at the first pose when it
-/// is clear, else at the model's home pose. `on_step` (optional) sees each sample as it is made.
+/// is clear, else at the model's home pose. `params` are the materials, gains and limits of the run
+/// (the model's defaults when omitted). `on_step` (optional) sees each sample as it is made.
+std::vector<SimSample> simulate(const Model& model, const Params& params, const Trajectory& trajectory,
+                                double rate_hz, const std::function<void(const SimSample&)>& on_step = {});
 std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory, double rate_hz,
                                 const std::function<void(const SimSample&)>& on_step = {});
 

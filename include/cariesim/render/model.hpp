@@ -1,7 +1,8 @@
 #pragma once
 /// The immutable Model of the haptic step (DESIGN.md §4, STYLE.md "Model / State / step"): object
-/// trees, materials, lesions, the tool, gains, device limits, capacities. Built once from a scene
-/// (scene/build.hpp); the servo thread may change material parameters between steps only.
+/// trees, lesions, the tool, numerical settings, capacities, and the authored Params (materials,
+/// gains, device limits). Built once from a scene (scene/build.hpp) and never changed after; what
+/// may change while the loop runs is a Params block (render/params.hpp) the caller owns.
 
 #include <cstdint>
 #include <string>
@@ -10,6 +11,7 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/render/params.hpp"
 #include "cariesim/spheretree/lesion.hpp"
 #include "cariesim/spheretree/material.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
@@ -24,7 +26,7 @@ struct LesionModel {
   uint16_t material = 0;       ///< index of its (top-layer) material in Model::materials
   LesionShape shape;           ///< authored shape, world coordinates
   double authored_depth = 0.0; ///< mm, depth below the surface at the shape's centre
-  std::string severity;        ///< "mild", "moderate", "severe" or "" (authoring label)
+  std::string severity;        ///< "mild", "severe" or "" (authoring label)
 };
 
 /// The haptic tool.
@@ -35,23 +37,8 @@ struct ToolModel {
   double tip_radius = 0.05;    ///< mm
 };
 
-/// Virtual coupling between haptic and graphic tool: the weight G of paper eqs. 1-2.
-struct CouplingGains {
-  double k_trans = 1.0;   ///< N/mm (defaults to the device's maximum stiffness, eq. 6 k_p)
-  double k_rot = 150.0;   ///< N·mm/rad
-};
-
-/// The device's limits (defaults: the paper's Phantom Premium 3.0 6-DoF, §4.1.2).
-struct DeviceLimits {
-  double max_force = 22.0;      ///< N
-  double max_stiffness = 1.0;   ///< N/mm
-  double max_torque = 500.0;    ///< N·mm
-  double position_resolution = 0.02;  ///< mm
-  Eigen::AlignedBox3d workspace{Vec3(-200, -200, -200), Vec3(200, 200, 200)};  ///< mm
-};
-
 /// Numerical settings of the step.
-struct StepParams {
+struct StepSettings {
   double trust_step = 0.1;          ///< mm, largest tool-leaf motion per sub-step (trust region)
   double trust_rotation = 0.02;     ///< rad, largest rotation per sub-step
   int max_substeps = 6;             ///< per step; the graphic tool lags behind beyond that
@@ -64,9 +51,7 @@ struct StepParams {
 
 /// Capacities fixed at build time (scratch memory is reserved then).
 struct Capacities {
-  std::size_t contacts = 1024;   ///< raw sphere pairs per query
-  int qp_rows = 96;              ///< rows per QP (<= kQpMaxRows)
-  int friction_anchors = 8;      ///< simultaneously sticking contacts
+  std::size_t contacts = 1024;  ///< raw sphere pairs per query
 };
 
 /// Cold, display-only data of one scene object.
@@ -80,12 +65,12 @@ struct DisplayPart {
 
 struct Model {
   std::vector<CollisionObject> objects;  ///< all collidable trees (healthy, caries, soft tissue)
-  std::vector<Material> materials;
   std::vector<LesionModel> lesions;
   ToolModel tool;
-  CouplingGains gains;
-  DeviceLimits limits;
-  StepParams params;
+  /// Materials, gains and device limits as authored: the start of every running Params block. A
+  /// material's rigidity (infinite stiffness) and the material count are the Model's.
+  Params defaults;
+  StepSettings settings;
   Capacities capacities;
   double servo_rate = 1000.0;  ///< Hz
   Pose tool_home;              ///< a collision-free tool pose used when the state is created

@@ -27,7 +27,7 @@ enum StepFlag : uint32_t {
   kFlagLagging = 1u << 6,         ///< sub-step budget exhausted; the graphic tool is catching up
   kFlagQpRowsFull = 1u << 7,      ///< more constraint rows than the QP capacity
   kFlagBacktracked = 1u << 8,     ///< the solution overlapped rigid tissue and was shortened
-  kFlagWrongState = 1u << 9,      ///< the state was built for another model; nothing was done
+  kFlagWrongState = 1u << 9,      ///< the state or the params were made for another model; nothing was done
 };
 
 /// One contact as reported to the viewer / logs (the strongest few).
@@ -77,7 +77,7 @@ struct StepOutput {
   TunnelSpheres tunnel;
 };
 
-struct StateImpl;  // scratch and history; see render/state.cpp
+struct StateImpl;  // scratch and history; see src/render/state_impl.hpp
 
 /// Everything the step carries from one cycle to the next, plus scratch reserved at creation.
 class State {
@@ -102,7 +102,10 @@ class State {
   std::unique_ptr<StateImpl> impl_;
 };
 
-/// Advances the state by one servo cycle.
+/// Advances the state by one servo cycle with the running `params` (materials, gains, limits; made
+/// from model.defaults, with the Model's material count).
+StepOutput step(const Model& model, const Params& params, State& state, const HapticInput& input);
+/// The same with the model's authored parameters (model.defaults).
 StepOutput step(const Model& model, State& state, const HapticInput& input);
 
 }  // namespace cariesim

@@ -13,27 +13,11 @@
 
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/safety.hpp"
+#include "cariesim/render/params.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim {
-
-/// A parameter change from the UI, applied by the servo thread between two steps.
-struct ParamChange {
-  /// μs, μd (1, in [0, 5]); Stiffness: contact stiffness, KE: k_e, KC: constant k_c (N/mm, in
-  /// (0, 1e6]); FPStar: F_p*, FEStar: F_e* (N, in [0, 1e3]); KTheta: k_θ (N·mm/rad, in (0, 1e6]);
-  /// ForceScale (1, in [0, 1]); Preset: the paper's mild (0) or severe (1) preset (caries_preset).
-  enum class Field : uint8_t { MuS, MuD, Stiffness, KE, KC, FPStar, FEStar, KTheta, ForceScale, Preset };
-  Field field = Field::MuS;
-  int16_t lesion = -1;  ///< the lesion whose materials change; -1 for ForceScale
-  double value = 0.0;   ///< in the field's unit (N/mm, N, N·mm/rad, 1); Preset: 0 mild, 1 severe
-};
-
-/// Applies a change to every material of the change's lesion (what the servo thread does between
-/// steps). Returns false when it does not apply (unknown lesion, non-finite or out-of-range value)
-/// and then changes nothing. ForceScale is not a model parameter: ServoLoop gives it to its
-/// ForceSafety, and this function returns false for it. Allocation-free.
-bool apply_param_change(Model& model, const ParamChange& change);
 
 /// One recorded sample (servo -> recorder), at the servo rate.
 struct ServoSample {
@@ -125,10 +109,10 @@ struct ServoOptions {
 /// deadlines instead of running them back to back (the servo clock follows the wall clock).
 class ServoLoop {
  public:
-  /// The loop owns a State for `model`; `model` and `device` must outlive it. Only the servo thread
-  /// touches `model` while running (parameter changes arrive through post()). Throws
+  /// The loop owns a State for `model` and the running Params (the model's defaults within the
+  /// device's limits; changes arrive through post()); `model` and `device` must outlive it. Throws
   /// cariesim::Error when rate_hz is outside (0, 10000].
-  ServoLoop(Model& model, Device& device, const ServoOptions& options);
+  ServoLoop(const Model& model, Device& device, const ServoOptions& options);
   ~ServoLoop();
   ServoLoop(const ServoLoop&) = delete;
   ServoLoop& operator=(const ServoLoop&) = delete;
@@ -151,6 +135,8 @@ class ServoLoop {
   [[nodiscard]] uint64_t dropped_samples() const { return dropped_.load(); }
   /// Parameter changes that did not apply (apply_param_change returned false).
   [[nodiscard]] uint64_t rejected_changes() const { return rejected_changes_.load(); }
+  /// The running parameters (the servo thread's); read them only while the loop is stopped.
+  [[nodiscard]] const Params& params() const { return params_; }
   /// The fixed step, 1 / rate_hz (s).
   [[nodiscard]] double dt() const { return dt_; }
 
@@ -159,8 +145,9 @@ class ServoLoop {
   /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
   /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
   int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
-  Model& model_;
+  const Model& model_;
   Device& device_;
+  Params params_;  // servo thread only while running
   ServoOptions options_;
   double dt_;  // s
   int64_t period_ns_;
