@@ -3,6 +3,7 @@
 
 #include "cariesim/experiment/experiments.hpp"
 #include "commands.hpp"
+#include "figures.hpp"
 #include "progress_printer.hpp"
 
 namespace cariesim::cli {
@@ -16,14 +17,16 @@ void register_experiment(CLI::App& app, Registry& registry) {
     bool no_figures = false;
   };
   auto args = std::make_shared<Args>();
-  CLI::App* sub = app.add_subcommand("experiment", "Run one of the paper's experiments (CSVs, figures, summary.json)");
+  CLI::App* sub =
+      app.add_subcommand("experiment", "Run one of the paper's experiments (CSVs, figures, summary.json)");
   std::vector<std::string> names = experiment_names();
   names.push_back("all");
   sub->add_option("name", args->name, "friction | boundary | insertion | oral | all")
       ->required()
       ->check(CLI::IsMember(names));
   sub->add_option("--out", args->out, "Output folder")->required();
-  sub->add_option("--rate", args->rate, "Servo rate of the simulated runs (Hz)")->check(CLI::Range(100.0, 20000.0));
+  sub->add_option("--rate", args->rate, "Servo rate of the simulated runs (Hz)")
+      ->check(CLI::Range(100.0, 20000.0));
   sub->add_flag("--quiet", args->quiet, "No progress");
   sub->add_flag("--no-figures", args->no_figures, "Write data and summary only");
   registry.add(sub, [args] {
@@ -31,10 +34,16 @@ void register_experiment(CLI::App& app, Registry& registry) {
     options.out = args->out;
     options.rate_hz = args->rate;
     options.quiet = args->quiet;
-    options.figures = !args->no_figures;
+    if (!args->no_figures) {
+      const bool quiet = args->quiet;
+      options.draw_figures = [quiet](const std::filesystem::path& dir, const std::string& name) {
+        return draw_figures(dir, name, quiet);
+      };
+    }
     if (!args->quiet) options.build.progress = progress_printer();
     run_experiment(args->name, options);
-    if (!args->quiet) std::fprintf(stderr, "experiment %s: results in %s\n", args->name.c_str(), args->out.c_str());
+    if (!args->quiet)
+      std::fprintf(stderr, "experiment %s: results in %s\n", args->name.c_str(), args->out.c_str());
     return 0;
   });
 }

@@ -1,7 +1,5 @@
 #include "experiment/common.hpp"
 
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -34,30 +32,6 @@ void write_csv(const std::filesystem::path& file, const std::string& header,
     out << '\n';
   }
   write_text(file, out.str());
-}
-
-std::vector<std::string> draw_figures(const std::filesystem::path& dir, std::string_view name,
-                                      std::string_view script, bool quiet) {
-  const std::filesystem::path file = dir / ("plot_" + std::string(name) + ".py");
-  write_text(file, script);
-  // Debian's python3 carries python3-matplotlib; a python3 first on PATH may not.
-  const char* python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::filesystem::path listing = dir / ("figures_" + std::string(name) + ".txt");
-  std::filesystem::remove(listing);
-  const std::string command = std::string(python) + " '" + file.string() + "' '" + dir.string() + "'" +
-                              (quiet ? " >/dev/null 2>&1" : " 1>&2");
-  const int status = std::system(command.c_str());
-  std::vector<std::string> figures;
-  if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::fprintf(stderr, "warning: %s: figures not drawn (python3 with matplotlib needed); data written\n",
-                 file.string().c_str());
-    return figures;
-  }
-  std::ifstream in(listing);
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) figures.push_back(line);
-  std::filesystem::remove(listing);
-  return figures;
 }
 
 void say(const ExperimentOptions& options, const std::string& line) {

@@ -1,5 +1,5 @@
 #pragma once
-// Shared pieces of the experiments: trajectories made of straight segments, CSV output, figures.
+// Shared pieces of the experiments: trajectories made of straight segments, CSV output, statistics.
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -37,12 +37,6 @@ void write_csv(const std::filesystem::path& file, const std::string& header,
 /// Writes text to a file; throws cariesim::Error when it cannot.
 void write_text(const std::filesystem::path& file, std::string_view text);
 
-/// Writes `plot_<name>.py` into `dir` and runs it with python3 (matplotlib). Returns the figure files
-/// the script reported, or an empty list (with a warning on stderr) when python3/matplotlib is
-/// missing or the script failed; the data and summary are written either way.
-std::vector<std::string> draw_figures(const std::filesystem::path& dir, std::string_view name,
-                                      std::string_view script, bool quiet);
-
 /// Deepest overlap (mm, 0 when none) of the graphic tool with any rigid object over a run: the
 /// engine promises at most the rigid tolerance (0.01 mm) after every step (issue #3 acceptance).
 double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples);
@@ -64,11 +58,5 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary);
 void run_boundary(const ExperimentOptions& options, JsonWriter& summary);
 void run_insertion(const ExperimentOptions& options, JsonWriter& summary);
 void run_oral(const ExperimentOptions& options, JsonWriter& summary);
-
-// The figure scripts (plots.cpp).
-extern const std::string_view kFrictionPlot;
-extern const std::string_view kBoundaryPlot;
-extern const std::string_view kInsertionPlot;
-extern const std::string_view kOralPlot;
 
 }  // namespace cariesim::experiment

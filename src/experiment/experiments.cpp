@@ -13,14 +13,13 @@ namespace {
 struct Entry {
   const char* name;
   void (*run)(const ExperimentOptions&, JsonWriter&);
-  const std::string_view* plot;
 };
 
 const Entry kExperiments[] = {
-    {"friction", experiment::run_friction, &experiment::kFrictionPlot},
-    {"boundary", experiment::run_boundary, &experiment::kBoundaryPlot},
-    {"insertion", experiment::run_insertion, &experiment::kInsertionPlot},
-    {"oral", experiment::run_oral, &experiment::kOralPlot},
+    {"friction", experiment::run_friction},
+    {"boundary", experiment::run_boundary},
+    {"insertion", experiment::run_insertion},
+    {"oral", experiment::run_oral},
 };
 
 // Runs one experiment into options.out and writes its summary.json.
@@ -34,13 +33,13 @@ std::string run_one(const Entry& e, const ExperimentOptions& options) {
   e.run(options, summary);
   // Figures from the data just written.
   const std::vector<std::string> figures =
-      options.figures ? experiment::draw_figures(options.out, e.name, *e.plot, options.quiet)
-                      : std::vector<std::string>{};
+      options.draw_figures ? options.draw_figures(options.out, e.name) : std::vector<std::string>{};
   summary.key("figures").begin_array();
   for (const std::string& f : figures) summary.value(f);
   summary.end_array();
   summary.field("rate_hz", options.rate_hz);
-  summary.field("wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  summary.field("wall_seconds",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   summary.field("version", CARIESIM_VERSION);
   summary.end_object();
   experiment::write_text(options.out / "summary.json", summary.str() + "\n");

@@ -1,6 +1,6 @@
 #pragma once
-// The built-in scenes, embedded at build time from scenes/NAME.yaml (src/scene/embed_scenes.cmake
-// writes the table into the build tree).
+// The built-in scenes, embedded at build time from scenes/NAME.yaml (cmake/embed_text.cmake writes
+// the table into the build tree).
 
 #include <cstddef>
 #include <string_view>

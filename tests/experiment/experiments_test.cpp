@@ -74,7 +74,6 @@ ExperimentOptions options_in(const std::string& name) {
   ExperimentOptions o;
   o.out = fs::path(CARIESIM_BINARY_DIR) / "test-artefacts" / ("experiment-" + name);
   fs::remove_all(o.out);
-  o.figures = false;
   o.quiet = true;
   return o;
 }

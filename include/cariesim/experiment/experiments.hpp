@@ -1,9 +1,12 @@
 #pragma once
 /// The paper's experiments, each reproducible with one command (DESIGN.md §1, §6):
-/// `cariesim experiment friction|boundary|insertion|oral|all --out DIR`. Each writes per-run CSVs,
-/// a figure per paper figure (matplotlib, Debian's python3-matplotlib) and summary.json.
+/// `cariesim experiment friction|boundary|insertion|oral|all --out DIR`. Each writes per-run CSVs and
+/// summary.json; figures are drawn by whoever runs them (`cariesim experiment` plugs in its
+/// matplotlib scripts through ExperimentOptions::draw_figures), so the core library stays free of
+/// plotting.
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -12,11 +15,14 @@
 namespace cariesim {
 
 struct ExperimentOptions {
-  std::filesystem::path out;   ///< folder for CSVs, figures and summary.json (created)
-  double rate_hz = 1000.0;     ///< Hz, servo rate of the simulated runs
-  bool figures = true;         ///< draw the figures (needs python3 with matplotlib)
-  bool quiet = false;          ///< no progress on stderr
-  BuildOptions build;          ///< how scenes are built (cache, progress)
+  std::filesystem::path out;  ///< folder for CSVs, figures and summary.json (created)
+  double rate_hz = 1000.0;    ///< Hz, servo rate of the simulated runs
+  /// Draws an experiment's figures from the data it wrote into `dir` (the experiment's `name`) and
+  /// returns the figure files it made; listed in summary.json. Empty: no figures.
+  std::function<std::vector<std::string>(const std::filesystem::path& dir, const std::string& name)>
+      draw_figures;
+  bool quiet = false;  ///< no progress on stderr
+  BuildOptions build;  ///< how scenes are built (cache, progress)
 };
 
 /// Names accepted by run_experiment, in the order `all` runs them.
