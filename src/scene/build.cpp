@@ -257,6 +257,233 @@ ProgressFn part_progress(const BuildOptions& options, const std::string& name) {
   };
 }
 
+// Material indices of a model: each object's healthy material (and dentin below its enamel), then
+// one per lesion.
+struct MaterialTable {
+  std::vector<uint16_t> healthy;  // per scene object
+  std::vector<int> dentin;        // per scene object, -1 when it has no enamel layer
+  std::vector<uint16_t> lesion;   // per lesion
+};
+
+MaterialTable add_materials(const SceneDesc& scene, std::vector<Material>& materials) {
+  MaterialTable table;
+  table.healthy.resize(scene.objects.size());
+  table.dentin.assign(scene.objects.size(), -1);
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDesc& o = scene.objects[i];
+    Material m;
+    m.tissue = o.tissue;
+    m.stiffness = o.material.stiffness;
+    m.mu_s = o.material.mu_s;
+    m.mu_d = o.material.mu_d;
+    table.healthy[i] = static_cast<uint16_t>(materials.size());
+    materials.push_back(m);
+    if (o.enamel_thickness) {
+      m.tissue = Tissue::Dentin;
+      table.dentin[i] = static_cast<int>(materials.size());
+      materials.push_back(m);
+    }
+  }
+  table.lesion.resize(scene.lesions.size());
+  for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
+    const LesionDesc& l = scene.lesions[k];
+    Material m = l.material;
+    m.lesion = static_cast<int16_t>(k);
+    if (!l.world_frame) m.aniso_dir = scene.objects[static_cast<std::size_t>(l.object)].pose.q * m.aniso_dir;
+    table.lesion[k] = static_cast<uint16_t>(materials.size());
+    materials.push_back(m);
+  }
+  return table;
+}
+
+// Level sets, CSG, tree, leaf labels and display mesh of one part (-1: the healthy or whole part, else
+// the k-th lesion of the object). `part_ls` keeps the part's level set for a later deviation measure.
+CachedPart build_part(ObjectBuild& b, int part, int lesion, const SceneDesc& scene, const std::string& name,
+                      const BuildOptions& options, std::optional<LevelSet>& part_ls) {
+  const ObjectDesc& o = *b.desc;
+  part_ls = part_level_set(b, part);
+  CachedPart built;
+  try {
+    built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
+  }
+  if (built.tree.empty()) {
+    if (lesion >= 0) {
+      const LesionDesc& l = scene.lesions[static_cast<std::size_t>(lesion)];
+      throw Error(fmt::format("{}: the lesion does not overlap '{}' (its caries part is empty)",
+                              lesion_context(l), o.name));
+    }
+    throw Error(
+        fmt::format("{}: {} is empty (do the lesions cover the whole object?)", object_context(o), name));
+  }
+  classify_leaves(built.tree, *b.object_ls,
+                  b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution().voxel);
+  built.display = b.lesions.empty() ? b.world_mesh() : part_ls->to_mesh(kDisplayAdaptivity);
+  return built;
+}
+
+// Leaf materials from the leaf depth: healthy enamel/dentin below the object's enamel thickness, or
+// the lesion's own.
+void label_part(SphereTree& tree, const ObjectDesc& o, std::size_t object, int lesion,
+                const MaterialTable& table) {
+  if (lesion < 0) {
+    const uint16_t enamel = table.healthy[object];
+    const int dentin = table.dentin[object];
+    const double thickness = o.enamel_thickness.value_or(std::numeric_limits<double>::infinity());
+    assign_materials(tree, [&](const Vec3&, float depth) {
+      return dentin >= 0 && depth > thickness ? static_cast<uint16_t>(dentin) : enamel;
+    });
+  } else {
+    const uint16_t m = table.lesion[static_cast<std::size_t>(lesion)];
+    assign_materials(tree, [m](const Vec3&, float) { return m; });
+  }
+}
+
+// Appends a built part to the model: its collision object, its display part, and the lesion it shows.
+void add_part(Model& model, const SceneDesc& scene, std::size_t object_index, int healthy_index, int lesion,
+              const LesionShape* shape, const std::string& name, SphereTree tree, TriangleMesh display_mesh,
+              const MaterialTable& table) {
+  const ObjectDesc& o = scene.objects[object_index];
+  CollisionObject object;
+  object.name = name;
+  object.kind = o.kind;
+  object.scene_object = static_cast<int16_t>(object_index);
+  DisplayPart display;
+  display.name = name;
+  display.mesh = std::move(display_mesh);
+  display.tissue = o.tissue;
+  display.object = static_cast<int16_t>(model.objects.size());
+  if (lesion >= 0) {
+    const std::size_t k = static_cast<std::size_t>(lesion);
+    object.lesion = static_cast<int16_t>(k);
+    object.host = static_cast<int16_t>(healthy_index);
+    display.tissue = Tissue::Caries;
+    display.lesion = static_cast<int16_t>(k);
+    LesionModel& lm = model.lesions[k];
+    lm.name = scene.lesions[k].name;
+    lm.object = static_cast<int16_t>(model.objects.size());
+    lm.host = static_cast<int16_t>(healthy_index);
+    lm.material = table.lesion[k];
+    lm.shape = *shape;
+    lm.authored_depth = scene.lesions[k].shape.depth;
+    lm.severity = scene.lesions[k].severity;
+  }
+  object.tree = std::move(tree);
+  // Rigid tissue is met only at its surface (collide() skips its interior fillers).
+  const std::vector<Material>& materials = model.defaults.materials;
+  object.surface_only =
+      std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(), [&](uint32_t node) {
+        const uint16_t mat = object.tree.nodes[node].material;
+        return mat < materials.size() && materials[mat].rigid();
+      });
+  model.objects.push_back(std::move(object));
+  model.display.push_back(std::move(display));
+}
+
+// Every part of one scene object: the healthy (or whole) part, then one caries part per lesion, each
+// from the cache or built. Adds the object's key to `scene_key` and a report per part to `out`.
+void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const BuildOptions& options,
+                      const std::optional<TreeCache>& cache, const MaterialTable& table, BuildKey& scene_key,
+                      BuildReport& out) {
+  const ObjectDesc& o = scene.objects[i];
+  ObjectBuild b;
+  b.desc = &o;
+  b.params = effective_params(o, options);
+  for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
+    if (scene.lesions[k].object != static_cast<int>(i)) continue;
+    b.lesions.push_back(static_cast<int>(k));
+    const LesionDesc& l = scene.lesions[k];
+    b.shapes.push_back(l.snap ? place_lesion(scene, l, b.world_mesh()) : lesion_shape_in_world(scene, l));
+  }
+
+  // What determines this object's parts.
+  BuildKey object_key;
+  object_key.add(kPartFormat);
+  add_geometry(object_key, o);
+  add_tree(object_key, b.params, o.tree.voxel.value_or(-1.0));
+  for (const LesionShape& s : b.shapes) add_lesion(object_key, s);
+  scene_key.add(static_cast<int64_t>(object_key.value()));
+
+  const std::size_t part_total = scene.objects.size() + scene.lesions.size();
+  const int healthy_index = static_cast<int>(model.objects.size());
+  for (int part = -1; part < static_cast<int>(b.lesions.size()); ++part) {
+    const auto part_start = Clock::now();
+    const bool whole = b.lesions.empty();
+    // The lesion this part shows (-1: the healthy or whole part).
+    const int lesion = part < 0 ? -1 : b.lesions[static_cast<std::size_t>(part)];
+    const std::string name =
+        whole ? o.name
+              : fmt::format("{}/{}", o.name,
+                            lesion < 0 ? std::string("healthy")
+                                       : scene.lesions[static_cast<std::size_t>(lesion)].name);
+    report(options.progress, name, 0.0);
+    BuildKey part_key(object_key);
+    part_key.add(int64_t{part});
+
+    // Cached, else built (and cached).
+    PartReport part_report;
+    part_report.name = name;
+    part_report.object = static_cast<int>(model.objects.size());
+    std::optional<CachedPart> cached = cache ? cache->load(part_key.value()) : std::nullopt;
+    std::optional<LevelSet> part_ls;
+    if (cached) {
+      part_report.cache_hit = true;
+    } else {
+      cached = build_part(b, part, lesion, scene, name, options, part_ls);
+      if (cache) cache->store(part_key.value(), *cached);
+    }
+
+    // Leaf materials, then a check that the tree is usable.
+    SphereTree tree = std::move(cached->tree);
+    label_part(tree, o, i, lesion, table);
+    if (const std::string problem = check_tree(tree, 1e-3); !problem.empty())
+      throw Error(fmt::format("{}: {}: invalid tree: {}", object_context(o), name, problem));
+    part_report.build_seconds = seconds_since(part_start);
+
+    // Surface deviation (on request): against the input mesh for a whole object, else the part's surface.
+    if (options.measure_deviation) {
+      if (!part_ls) part_ls = part_level_set(b, part);
+      part_report.deviation = measure_deviation(tree, whole ? b.world_mesh() : cached->display, *part_ls,
+                                                options.deviation_samples);
+    }
+
+    part_report.leaves = tree.leaf_count();
+    part_report.levels = tree.levels;
+    part_report.nodes_per_level = tree.nodes_per_level();
+    add_part(model, scene, i, healthy_index, lesion,
+             part < 0 ? nullptr : &b.shapes[static_cast<std::size_t>(part)], name, std::move(tree),
+             std::move(cached->display), table);
+    out.parts.push_back(std::move(part_report));
+    report(options.progress, name, 1.0);
+    report(options.progress, "scene",
+           static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
+  }
+}
+
+// The tool's home: as given, else above the scene's highest point with the tip lowest. It must be free.
+Pose tool_home(const SceneDesc& scene, const Model& model) {
+  Pose home;
+  if (scene.tool_home) {
+    home = *scene.tool_home;
+  } else {
+    Eigen::AlignedBox3d bounds;
+    for (const DisplayPart& part : model.display) bounds.extend(part.mesh.bounds());
+    home.p = Vec3(bounds.center().x(), bounds.center().y(), bounds.max().z() + kHomeClearance);
+    // Tilted about the tool's y axis by half the bend: tip segment and handle rise equally, so the
+    // tip is the tool's lowest point.
+    home.q = Quat(Eigen::AngleAxisd(-0.5 * scene.tool.bend_angle, Vec3::UnitY()));
+  }
+  PlacedTool placed(model.tool.tree);
+  placed.place(home, 0.0);
+  const ClosestPair near = closest(placed, model.objects, kAllObjects, 0.0);
+  if (near.gap < 0.0) {
+    throw Error(fmt::format("{}: tool.home: the tool at its home pose overlaps '{}' by {:.3f} mm",
+                            scene.origin, model.objects[near.object].name, -near.gap));
+  }
+  return home;
+}
+
 }  // namespace
 
 Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildReport* report_out) {
@@ -273,172 +500,11 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   BuildKey scene_key;
   scene_key.add(static_cast<int64_t>(scene.source_hash));
 
-  // Materials: each object's healthy material (and dentin below its enamel), then one per lesion.
-  std::vector<uint16_t> healthy_material(scene.objects.size());
-  std::vector<int> dentin_material(scene.objects.size(), -1);
-  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
-    const ObjectDesc& o = scene.objects[i];
-    Material m;
-    m.tissue = o.tissue;
-    m.stiffness = o.material.stiffness;
-    m.mu_s = o.material.mu_s;
-    m.mu_d = o.material.mu_d;
-    healthy_material[i] = static_cast<uint16_t>(model.defaults.materials.size());
-    model.defaults.materials.push_back(m);
-    if (o.enamel_thickness) {
-      m.tissue = Tissue::Dentin;
-      dentin_material[i] = static_cast<int>(model.defaults.materials.size());
-      model.defaults.materials.push_back(m);
-    }
-  }
-  std::vector<uint16_t> lesion_material(scene.lesions.size());
-  for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
-    const LesionDesc& l = scene.lesions[k];
-    Material m = l.material;
-    m.lesion = static_cast<int16_t>(k);
-    if (!l.world_frame) m.aniso_dir = scene.objects[static_cast<std::size_t>(l.object)].pose.q * m.aniso_dir;
-    lesion_material[k] = static_cast<uint16_t>(model.defaults.materials.size());
-    model.defaults.materials.push_back(m);
-  }
+  // Materials, then every object's parts (trees, display meshes, lesions).
+  const MaterialTable table = add_materials(scene, model.defaults.materials);
   model.lesions.resize(scene.lesions.size());
-
-  // Parts, object by object: the healthy (or whole) part, then one caries part per lesion.
-  const std::size_t part_total = scene.objects.size() + scene.lesions.size();
-  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
-    const ObjectDesc& o = scene.objects[i];
-    ObjectBuild b;
-    b.desc = &o;
-    b.params = effective_params(o, options);
-    for (std::size_t k = 0; k < scene.lesions.size(); ++k) {
-      if (scene.lesions[k].object != static_cast<int>(i)) continue;
-      b.lesions.push_back(static_cast<int>(k));
-      const LesionDesc& l = scene.lesions[k];
-      b.shapes.push_back(l.snap ? place_lesion(scene, l, b.world_mesh()) : lesion_shape_in_world(scene, l));
-    }
-
-    // What determines this object's parts.
-    BuildKey object_key;
-    object_key.add(kPartFormat);
-    add_geometry(object_key, o);
-    add_tree(object_key, b.params, o.tree.voxel.value_or(-1.0));
-    for (const LesionShape& s : b.shapes) add_lesion(object_key, s);
-    scene_key.add(static_cast<int64_t>(object_key.value()));
-
-    const int healthy_index = static_cast<int>(model.objects.size());
-    for (int part = -1; part < static_cast<int>(b.lesions.size()); ++part) {
-      const auto part_start = Clock::now();
-      const bool whole = b.lesions.empty();
-      // The lesion this part shows (-1: the healthy or whole part).
-      const int lesion = part < 0 ? -1 : b.lesions[static_cast<std::size_t>(part)];
-      const std::string name =
-          whole ? o.name
-                : fmt::format("{}/{}", o.name,
-                              lesion < 0 ? std::string("healthy")
-                                         : scene.lesions[static_cast<std::size_t>(lesion)].name);
-      report(options.progress, name, 0.0);
-      BuildKey part_key(object_key);
-      part_key.add(int64_t{part});
-
-      // Cached, else built: level sets, CSG, tree, leaf labels, display mesh.
-      PartReport part_report;
-      part_report.name = name;
-      part_report.object = static_cast<int>(model.objects.size());
-      std::optional<CachedPart> cached = cache ? cache->load(part_key.value()) : std::nullopt;
-      std::optional<LevelSet> part_ls;
-      if (cached) {
-        part_report.cache_hit = true;
-      } else {
-        part_ls = part_level_set(b, part);
-        CachedPart built;
-        try {
-          built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
-        } catch (const Error& e) {
-          throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
-        }
-        if (built.tree.empty()) {
-          if (lesion >= 0) {
-            const LesionDesc& l = scene.lesions[static_cast<std::size_t>(lesion)];
-            throw Error(fmt::format("{}: the lesion does not overlap '{}' (its caries part is empty)",
-                                    lesion_context(l), o.name));
-          }
-          throw Error(fmt::format("{}: {} is empty (do the lesions cover the whole object?)",
-                                  object_context(o), name));
-        }
-        classify_leaves(built.tree, *b.object_ls,
-                        b.params.mode == TreeMode::Tight ? b.params.tolerance : b.resolution().voxel);
-        built.display = whole ? b.world_mesh() : part_ls->to_mesh(kDisplayAdaptivity);
-        if (cache) cache->store(part_key.value(), built);
-        cached = std::move(built);
-      }
-
-      // Materials from the leaf depth: healthy enamel/dentin, or the lesion's.
-      SphereTree tree = std::move(cached->tree);
-      if (lesion < 0) {
-        const uint16_t enamel = healthy_material[i];
-        const int dentin = dentin_material[i];
-        const double thickness = o.enamel_thickness.value_or(std::numeric_limits<double>::infinity());
-        assign_materials(tree, [&](const Vec3&, float depth) {
-          return dentin >= 0 && depth > thickness ? static_cast<uint16_t>(dentin) : enamel;
-        });
-      } else {
-        const uint16_t m = lesion_material[static_cast<std::size_t>(lesion)];
-        assign_materials(tree, [m](const Vec3&, float) { return m; });
-      }
-      if (const std::string problem = check_tree(tree, 1e-3); !problem.empty()) {
-        throw Error(fmt::format("{}: {}: invalid tree: {}", object_context(o), name, problem));
-      }
-
-      part_report.build_seconds = seconds_since(part_start);
-
-      // Surface deviation (on request): against the input mesh for a whole object, else the part's surface.
-      if (options.measure_deviation) {
-        if (!part_ls) part_ls = part_level_set(b, part);
-        part_report.deviation = measure_deviation(tree, whole ? b.world_mesh() : cached->display, *part_ls,
-                                                  options.deviation_samples);
-      }
-
-      // The collision object, its display part, and the lesion it shows.
-      CollisionObject object;
-      object.name = name;
-      object.kind = o.kind;
-      object.scene_object = static_cast<int16_t>(i);
-      DisplayPart display;
-      display.name = name;
-      display.mesh = std::move(cached->display);
-      display.tissue = o.tissue;
-      display.object = static_cast<int16_t>(model.objects.size());
-      if (lesion >= 0) {
-        const std::size_t k = static_cast<std::size_t>(lesion);
-        object.lesion = static_cast<int16_t>(k);
-        object.host = static_cast<int16_t>(healthy_index);
-        display.tissue = Tissue::Caries;
-        display.lesion = static_cast<int16_t>(k);
-        LesionModel& lm = model.lesions[k];
-        lm.name = scene.lesions[k].name;
-        lm.object = static_cast<int16_t>(model.objects.size());
-        lm.host = static_cast<int16_t>(healthy_index);
-        lm.material = lesion_material[k];
-        lm.shape = b.shapes[static_cast<std::size_t>(part)];
-        lm.authored_depth = scene.lesions[k].shape.depth;
-        lm.severity = scene.lesions[k].severity;
-      }
-      part_report.leaves = tree.leaf_count();
-      part_report.levels = tree.levels;
-      part_report.nodes_per_level = tree.nodes_per_level();
-      object.tree = std::move(tree);
-      object.surface_only = std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(),
-                                        [&](uint32_t node) {
-                                          const uint16_t mat = object.tree.nodes[node].material;
-                                          return mat < model.defaults.materials.size() && model.defaults.materials[mat].rigid();
-                                        });
-      model.objects.push_back(std::move(object));
-      model.display.push_back(std::move(display));
-      out.parts.push_back(std::move(part_report));
-      report(options.progress, name, 1.0);
-      report(options.progress, "scene",
-             static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
-    }
-  }
+  for (std::size_t i = 0; i < scene.objects.size(); ++i)
+    add_object_parts(model, scene, i, options, cache, table, scene_key, out);
 
   // The tool: the explorer's sphere chain, its tree and display mesh.
   try {
@@ -450,30 +516,12 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
     throw Error(fmt::format("{}: tool: {}", scene.origin, e.what()));
   }
 
-  // Device, coupling, rate.
+  // Device, coupling, rate, and the tool's home.
   model.defaults.limits = scene.limits;
   model.defaults.gains = scene.gains;
   model.servo_rate = scene.servo_rate;
   model.scene_hash = scene_key.value();
-
-  // The tool's home: as given, else above the scene's highest point with the tip lowest; it must be free.
-  if (scene.tool_home) {
-    model.tool_home = *scene.tool_home;
-  } else {
-    Eigen::AlignedBox3d bounds;
-    for (const DisplayPart& part : model.display) bounds.extend(part.mesh.bounds());
-    model.tool_home.p = Vec3(bounds.center().x(), bounds.center().y(), bounds.max().z() + kHomeClearance);
-    // Tilted about the tool's y axis by half the bend: tip segment and handle rise equally, so the
-    // tip is the tool's lowest point.
-    model.tool_home.q = Quat(Eigen::AngleAxisd(-0.5 * scene.tool.bend_angle, Vec3::UnitY()));
-  }
-  PlacedTool placed(model.tool.tree);
-  placed.place(model.tool_home, 0.0);
-  const ClosestPair near = closest(placed, model.objects, kAllObjects, 0.0);
-  if (near.gap < 0.0) {
-    throw Error(fmt::format("{}: tool.home: the tool at its home pose overlaps '{}' by {:.3f} mm",
-                            scene.origin, model.objects[near.object].name, -near.gap));
-  }
+  model.tool_home = tool_home(scene, model);
   out.total_seconds = seconds_since(start);
   return model;
 }
