@@ -12,11 +12,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/factory.hpp"
 #include "cariesim/experiment/json.hpp"
@@ -37,16 +37,6 @@ std::string& glfw_error() {
 
 void on_glfw_error(int code, const char* description) {
   glfw_error() = fmt::format("GLFW error {}: {}", code, description != nullptr ? description : "");
-}
-
-// The current UTC time, ISO 8601.
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
 }
 
 // FILE.png -> FILE.json.
@@ -173,7 +163,8 @@ void ViewerApp::poll_build() {
 
 std::unique_ptr<Device> ViewerApp::make_session_device(const Model& model) {
   // The mouse and replay devices are composed here; the rest come from the device factory.
-  if (options_.device == "mouse") return std::make_unique<MouseDevice>(model.tool_home, model.defaults.limits);
+  if (options_.device == "mouse")
+    return std::make_unique<MouseDevice>(model.tool_home, model.defaults.limits);
   const std::string_view spec(options_.device);
   if (spec.starts_with("replay:")) return make_replay_device(std::string(spec.substr(7)));
   DeviceOptions device_options;
@@ -228,7 +219,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     info.device = options_.device;
     info.rate_hz = s->rate_hz;
     info.parameters = parameters_json(*s->model);
-    info.started_at = utc_now();
+    info.started_at = utc_now_iso8601();
     RecorderOptions record_options;
     record_options.overwrite = options_.overwrite;
     s->recorder = std::make_unique<Recorder>(options_.record, info, record_options);

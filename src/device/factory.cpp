@@ -7,6 +7,7 @@
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/udp_device.hpp"
 #include "cariesim/record/recorder.hpp"
+#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "cariesim/common/trajectory.hpp"
 #include "cariesim/device/device.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 

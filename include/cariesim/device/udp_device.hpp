@@ -12,9 +12,9 @@
 #include <thread>
 #include <vector>
 
+#include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/udp_protocol.hpp"
-#include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim {
 

@@ -11,11 +11,11 @@
 #include <string>
 #include <thread>
 
+#include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/safety.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/render/step.hpp"
-#include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim {
 

@@ -1,6 +1,6 @@
 // The lock-free hand-offs of the servo loop: TripleBuffer (latest value) and SpscQueue (FIFO),
 // single-threaded semantics and multi-threaded stress tests (run them under ThreadSanitizer too).
-#include "cariesim/servo/lockfree.hpp"
+#include "cariesim/common/lockfree.hpp"
 
 #include <gtest/gtest.h>
 
