@@ -11,10 +11,10 @@
 #include <string>
 #include <thread>
 
-#include "cariesim/device/factory.hpp"
 #include "cariesim/device/udp_device.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/servo/device_factory.hpp"
 #include "cariesim/servo/servo.hpp"
 #include "commands.hpp"
 #include "progress_printer.hpp"

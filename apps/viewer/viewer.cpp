@@ -18,8 +18,8 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/device/factory.hpp"
 #include "cariesim/experiment/json.hpp"
+#include "cariesim/servo/device_factory.hpp"
 #include "screenshot.hpp"
 #include "viewer_app.hpp"
 

@@ -373,7 +373,7 @@ void UdpDevice::write(const Vec3& force, const Vec3& torque) {
   w.force = clamped(force.allFinite() ? force : Vec3::Zero(), limit_force_.load(std::memory_order_relaxed));
   w.torque =
       clamped(torque.allFinite() ? torque : Vec3::Zero(), limit_torque_.load(std::memory_order_relaxed));
-  w.state = static_cast<uint8_t>(status_.state);
+  w.state = status_.state;
   w.depth = std::isfinite(status_.depth) ? status_.depth : 0.0;
   w.flags = static_cast<uint16_t>(status_.safety_flags & 0x7fu);
   if (limits_acknowledged_.load(std::memory_order_relaxed)) w.flags |= bridge::kWrenchLimitsAcknowledged;

@@ -25,6 +25,21 @@ void bump(std::atomic<uint64_t>& counter) {
   counter.store(counter.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
 }
 
+// The bridge protocol's state byte (DeviceStatus::state) of an interaction state.
+uint8_t state_code(InteractionState state) {
+  switch (state) {
+    case InteractionState::Free:
+      return 0;
+    case InteractionState::Sliding:
+      return 1;
+    case InteractionState::Inserting:
+      return 2;
+    case InteractionState::Extracting:
+      return 3;
+  }
+  return 0;
+}
+
 }  // namespace
 
 TimingHistogram& TimingHistogram::operator=(const TimingHistogram& other) {
@@ -168,7 +183,7 @@ void ServoLoop::run() {
     elapsed_.store(elapsed_before + static_cast<double>(end - start_ns) * 1e-9, std::memory_order_relaxed);
   }
   // Leave the device with no force, and continue the servo clock at the next start.
-  device_.set_status(DeviceStatus{state_->interaction(), state_->depth(), 0, 0});
+  device_.set_status(DeviceStatus{state_code(state_->interaction()), state_->depth(), 0, 0});
   device_.write(Vec3::Zero(), Vec3::Zero());
   time_base_ = t + dt_;
 }
@@ -196,7 +211,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   Vec3 force = out.force;
   Vec3 torque = out.torque;
   safety_.filter(force, torque, input, t);
-  device_.set_status(DeviceStatus{out.state, out.depth, safety_.flags(), out.flags});
+  device_.set_status(DeviceStatus{state_code(out.state), out.depth, safety_.flags(), out.flags});
   device_.write(force, torque);
 
   // Timing of this cycle's work; an overrun ended after the next deadline.

@@ -3,6 +3,10 @@
 /// torque, device info). The servo thread calls read() and write() once per cycle: implementations
 /// must not block, lock, allocate or do slow I/O there. Backends: null, scripted trajectory, replay of
 /// a recording, mouse (in the viewer), UDP bridge (docs/device-bridge.md).
+///
+/// The device module is a leaf (docs/architecture.md): it knows math and its own types only. What
+/// the engine says goes in as plain codes (DeviceStatus); devices are made from spec strings one
+/// level up, by the runtime (servo/device_factory.hpp).
 
 #include <cstdint>
 #include <memory>
@@ -11,7 +15,6 @@
 
 #include "cariesim/common/math.hpp"
 #include "cariesim/device/limits.hpp"
-#include "cariesim/render/step.hpp"
 
 namespace cariesim {
 
@@ -36,10 +39,12 @@ struct DeviceState {
 
 /// What the simulator reports alongside each wrench (the UDP bridge forwards it to its client).
 struct DeviceStatus {
-  InteractionState state = InteractionState::Free;  ///< the engine's interaction state
-  double depth = 0.0;                               ///< mm, insertion depth
-  uint32_t safety_flags = 0;                        ///< SafetyFlag bits of this cycle's wrench
-  uint32_t step_flags = 0;                          ///< StepFlag bits of this cycle's step
+  /// The engine's interaction state as the bridge protocol's state byte (docs/device-bridge.md):
+  /// 0 free, 1 sliding, 2 inserting, 3 extracting. The servo loop converts its InteractionState.
+  uint8_t state = 0;
+  double depth = 0.0;         ///< mm, insertion depth
+  uint32_t safety_flags = 0;  ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
+  uint32_t step_flags = 0;    ///< the engine step's flag bits (render/step.hpp StepFlag)
 };
 
 /// A named event counter of a device (e.g. the UDP bridge's rejected packets), for panels and notes.

@@ -14,29 +14,11 @@
 #include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/safety.hpp"
+#include "cariesim/record/sample.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/render/step.hpp"
 
 namespace cariesim {
-
-/// One recorded sample (servo -> recorder), at the servo rate.
-struct ServoSample {
-  double t = 0.0;  ///< s since the loop started
-  Pose haptic;
-  Pose graphic;
-  Vec3 force = Vec3::Zero();       ///< N, rendered (after safety)
-  Vec3 torque = Vec3::Zero();      ///< N·mm, rendered
-  float depth = 0.0f;              ///< mm
-  float step_us = 0.0f;            ///< µs
-  float soft_tissue_force = 0.0f;  ///< N
-  uint32_t step_flags = 0;         ///< StepFlag bits
-  uint32_t safety_flags = 0;       ///< SafetyFlag bits
-  uint16_t contacts = 0;
-  int8_t lesion = -1;
-  InteractionState state = InteractionState::Free;
-  bool overrun = false;  ///< this cycle missed its deadline
-  uint32_t buttons = 0;
-};
 
 /// Step time and loop jitter, as a fixed-bin histogram (allocation-free to fill). One thread adds;
 /// any thread may read at the same time (the bins are atomics: a reading taken while values are
