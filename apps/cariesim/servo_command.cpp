@@ -93,8 +93,6 @@ int run_servo(const ServoArgs& args) {
   ServoOptions options;
   options.rate_hz = args.rate > 0.0 ? args.rate : model.servo_rate;
   options.realtime = !args.no_realtime;
-  options.safety.max_force = model.defaults.limits.max_force;
-  options.safety.max_torque = model.defaults.limits.max_torque;
   options.safety.force_scale = args.force_scale;
 
   // The recorder, when asked: the loop pushes samples into its queue, its thread writes them.

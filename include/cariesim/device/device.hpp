@@ -42,9 +42,10 @@ struct DeviceStatus {
   /// The engine's interaction state as the bridge protocol's state byte (docs/device-bridge.md):
   /// 0 free, 1 sliding, 2 inserting, 3 extracting. The servo loop converts its InteractionState.
   uint8_t state = 0;
-  double depth = 0.0;         ///< mm, insertion depth
-  uint32_t safety_flags = 0;  ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
-  uint32_t step_flags = 0;    ///< the engine step's flag bits (render/step.hpp StepFlag)
+  double depth = 0.0;                ///< mm, insertion depth
+  uint32_t safety_flags = 0;         ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
+  uint32_t step_flags = 0;           ///< the engine step's flag bits (render/step.hpp StepFlag)
+  bool limits_acknowledged = false;  ///< the limits the device announced last (poll_limits) are in force
 };
 
 /// A named event counter of a device (e.g. the UDP bridge's rejected packets), for panels and notes.
@@ -71,6 +72,13 @@ class Device {
   virtual void write(const Vec3& force, const Vec3& torque) = 0;
   /// The state that goes with the next write() (called just before it). Servo thread; non-blocking.
   virtual void set_status(const DeviceStatus& status) { (void)status; }
+  /// Limits the device announced since the last call (e.g. a UDP client's hello), raw: the servo
+  /// loop checks them and tightens its own to them. True, with `out` set, when there are new ones.
+  /// Servo thread; non-blocking, allocation-free. Devices that never announce anything return false.
+  virtual bool poll_limits(DeviceLimits& out) {
+    (void)out;
+    return false;
+  }
   /// Event counters (any thread; may allocate). Empty for devices without any.
   [[nodiscard]] virtual std::vector<DeviceCounter> counters() const { return {}; }
 };
