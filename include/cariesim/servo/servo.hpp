@@ -3,7 +3,7 @@
 /// absolute deadlines, reading a device, filtering the wrench through ForceSafety and writing it back.
 /// It shares no lock with anyone: the latest state and the running Params go out through
 /// TripleBuffers, parameter changes come in through an SpscQueue, samples go to the recorder through
-/// another SpscQueue.
+/// another SpscQueue. Session (servo/session.hpp) builds a loop with its device and recorder.
 
 #include <array>
 #include <atomic>
