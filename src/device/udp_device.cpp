@@ -230,7 +230,10 @@ void UdpDevice::start() {
   // exists before the receiver can log too.
   spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
   receiver_ = std::thread([this] { receive_loop(); });
-  sender_ = std::thread([this] { send_loop(); });
+  // The sender starts from the ticket as it is now, before any write() or stop() can bump it: a
+  // sender thread scheduled late still sends the first wrench instead of waiting for the second.
+  const uint32_t ticket = outbound_ticket_.load();
+  sender_ = std::thread([this, ticket] { send_loop(ticket); });
 
   // Real-time priority for both threads when asked and allowed: under load a normal-priority thread
   // can wait milliseconds to be scheduled, and every such delay ages the pose or drops a wrench.
@@ -316,11 +319,10 @@ void UdpDevice::receive_loop() {
   }
 }
 
-void UdpDevice::send_loop() {
+void UdpDevice::send_loop(uint32_t seen) {
   std::array<uint8_t, bridge::kWrenchSize> buffer{};
-  // The ticket is loaded before running_ is checked, so a stop() that bumps it in between is seen
-  // by wait() instead of being slept through.
-  uint32_t seen = outbound_ticket_.load();
+  // `seen` is the ticket from before this thread started, so a write() or a stop() that bumped it
+  // since is seen by wait() instead of being slept through.
   while (running_.load()) {
     // Sleep until the servo thread writes (or stop() wakes us).
     outbound_ticket_.wait(seen);

@@ -149,7 +149,7 @@ class UdpDevice : public Device {
     uint64_t count = 0;        // accepted poses so far
   };
   void receive_loop();
-  void send_loop();
+  void send_loop(uint32_t seen);  // `seen`: the wrench ticket when start() made the thread
 
   UdpOptions options_;
   int socket_ = -1;
