@@ -19,6 +19,7 @@
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/safety.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/trajectory.hpp"
 #include "cariesim/servo/servo.hpp"
 
 namespace {

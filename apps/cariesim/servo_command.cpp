@@ -2,7 +2,8 @@
 // servo loop without a window (DESIGN.md §5). It drives the engine from any device (null,
 // scripted:FILE, replay:FILE, udp:PORT: the UDP bridge of docs/device-bridge.md), prints a status line
 // per second and, at the end, the loop's timing (step time and jitter percentiles, overruns), the
-// device's counters and what was recorded.
+// device's counters and what was recorded. The device, the loop and the record come from one Session
+// (servo/session.hpp), as in the viewer.
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -11,11 +12,9 @@
 #include <string>
 #include <thread>
 
-#include "cariesim/device/factory.hpp"
 #include "cariesim/device/udp_device.hpp"
-#include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/servo/servo.hpp"
+#include "cariesim/servo/session.hpp"
 #include "commands.hpp"
 #include "progress_printer.hpp"
 
@@ -48,8 +47,9 @@ void print_status(const ServoSnapshot& s) {
                static_cast<unsigned long long>(s.overruns), s.safety_flags);
 }
 
-// The loop's timing report, the device's counters, the recorder's summary.
-void print_report(const ServoLoop& loop, const Device& device, const Recorder* recorder) {
+// The loop's timing report, the limits in force, the device's counters, the recorder's summary.
+void print_report(Session& session) {
+  const ServoLoop& loop = session.loop();
   const TimingReport r = loop.timing();
   std::fprintf(stderr,
                "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns; real-time: %s\n"
@@ -58,6 +58,11 @@ void print_report(const ServoLoop& loop, const Device& device, const Recorder* r
                static_cast<unsigned long long>(r.cycles), r.rate_hz, 1.0 / loop.dt(),
                static_cast<unsigned long long>(r.overruns), loop.realtime_status().c_str(), r.step_p50,
                r.step_p99, r.step_p999, r.step_max, r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
+  const Params& params = session.params();
+  std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm%s\n",
+               params.limits.max_force, params.limits.max_stiffness, params.limits.max_torque,
+               params.gains.k_trans, loop.refused_limits() > 0 ? " (device limits refused)" : "");
+  const Device& device = session.device();
   const auto counters = device.counters();
   if (!counters.empty()) {
     std::fprintf(stderr, "  device %s:", device.info().name.c_str());
@@ -67,7 +72,7 @@ void print_report(const ServoLoop& loop, const Device& device, const Recorder* r
   }
   if (const auto* udp = dynamic_cast<const UdpDevice*>(&device))
     std::fprintf(stderr, "  bridge threads: %s\n", udp->realtime_status().c_str());
-  if (recorder != nullptr) {
+  if (const Recorder* recorder = session.recorder()) {
     const RecorderStatus st = recorder->status();
     std::fprintf(stderr, "  recorded %llu samples, %llu events to %s (%llu dropped by the loop)%s%s\n",
                  static_cast<unsigned long long>(st.written), static_cast<unsigned long long>(st.events),
@@ -77,49 +82,32 @@ void print_report(const ServoLoop& loop, const Device& device, const Recorder* r
 }
 
 int run_servo(const ServoArgs& args) {
-  // The model and the device it drives.
+  // The model, then the session: its device, servo loop and (with --record) recorder.
   BuildOptions build;
   if (!args.quiet) build.progress = progress_printer();
-  Model model = build_model(load_scene(args.scene), build);
-  DeviceOptions device_options;
-  device_options.home = model.tool_home;
-  device_options.limits = model.defaults.limits;
-  device_options.realtime = !args.no_realtime;
-  const std::unique_ptr<Device> device = make_device(args.device, device_options);
-  const DeviceInfo info = device->info();
+  const Model model = build_model(load_scene(args.scene), build);
+  SessionOptions options;
+  options.scene = args.scene;
+  options.device = args.device;
+  options.rate_hz = args.rate;
+  options.realtime = !args.no_realtime;
+  options.safety.force_scale = args.force_scale;
+  options.record = args.record;
+  Session session(model, options);
+  const DeviceInfo& info = session.device_info();
   // A scripted or replayed path that does not loop ends the run when it ends.
   const bool ends = (info.name == "scripted" || info.name == "replay") && !args.device.ends_with(":loop");
 
-  ServoOptions options;
-  options.rate_hz = args.rate > 0.0 ? args.rate : model.servo_rate;
-  options.realtime = !args.no_realtime;
-  options.safety.max_force = model.defaults.limits.max_force;
-  options.safety.max_torque = model.defaults.limits.max_torque;
-  options.safety.force_scale = args.force_scale;
-
-  // The recorder, when asked: the loop pushes samples into its queue, its thread writes them.
-  std::unique_ptr<Recorder> recorder;
-  if (!args.record.empty()) {
-    SessionInfo session;
-    session.scene = args.scene;
-    session.device = args.device;
-    session.rate_hz = options.rate_hz;
-    recorder = std::make_unique<Recorder>(args.record, session);
-    options.record = &recorder->queue();
-    recorder->start();
-  }
-
-  ServoLoop loop(model, *device, options);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
-  loop.start();
+  session.start();
   if (!args.quiet) {
     const std::string until = args.duration > 0.0 ? "for " + std::to_string(args.duration) + " s"
                               : ends              ? "until the path ends or Ctrl-C"
                                                   : "until Ctrl-C";
     std::fprintf(stderr, "servo: %s on %s at %.0f Hz (%s); real-time: %s; %s\n", info.name.c_str(),
-                 args.scene.c_str(), options.rate_hz, info.description.c_str(),
-                 loop.realtime_status().c_str(), until.c_str());
+                 args.scene.c_str(), session.rate_hz(), info.description.c_str(),
+                 session.loop().realtime_status().c_str(), until.c_str());
   }
 
   // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C.
@@ -130,7 +118,7 @@ int run_servo(const ServoArgs& args) {
   while (g_interrupted == 0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    if (loop.latest(snapshot)) {
+    if (session.latest(snapshot)) {
       if (!args.quiet && elapsed >= next_status) {
         print_status(snapshot);
         next_status += 1.0;
@@ -140,11 +128,11 @@ int run_servo(const ServoArgs& args) {
     }
     if (args.duration > 0.0 && elapsed >= args.duration) break;
   }
-  loop.stop();
+  // The loop and the device stop before the recorder, which then drains and closes.
+  session.stop();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
-  if (recorder) recorder->stop();
-  print_report(loop, *device, recorder.get());
+  print_report(session);
   return 0;
 }
 

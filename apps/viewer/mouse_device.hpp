@@ -8,8 +8,8 @@
 #include <cstdint>
 
 #include "camera.hpp"
+#include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
-#include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim::viewer {
 

@@ -46,34 +46,6 @@ bool slider(const char* label, double& value, double lo, double hi, const char* 
                              log ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None);
 }
 
-// The name of a parameter in "param" events of a record.
-const char* param_field_name(ParamChange::Field field) {
-  using F = ParamChange::Field;
-  switch (field) {
-    case F::MuS:
-      return "mu_s";
-    case F::MuD:
-      return "mu_d";
-    case F::Stiffness:
-      return "stiffness";
-    case F::KE:
-      return "k_e";
-    case F::KC:
-      return "k_c";
-    case F::FPStar:
-      return "f_p_star";
-    case F::FEStar:
-      return "f_e_star";
-    case F::KTheta:
-      return "k_theta";
-    case F::ForceScale:
-      return "force_scale";
-    case F::Preset:
-      return "preset";
-  }
-  return "?";
-}
-
 // 0-255 integer channels of a colour.
 void json_rgb(JsonWriter& json, const Rgba& c) {
   json.begin_array();
@@ -165,16 +137,20 @@ void ViewerApp::panel_scene() {
 void ViewerApp::panel_status() {
   if (!ImGui::CollapsingHeader("Status", ImGuiTreeNodeFlags_DefaultOpen)) return;
   const StepOutput& out = snapshot_.out;
-  const Session& s = *session_;
-  // Device.
-  ImGui::Text("device: %s", s.device_info.name.c_str());
-  if (!s.device_info.description.empty()) ImGui::TextWrapped("  %s", s.device_info.description.c_str());
+  SceneSession& s = *session_;
+  const DeviceInfo& device = s.run->device_info();
+  // Device, and the limits in force (the scene's within what the device announced).
+  ImGui::Text("device: %s", device.name.c_str());
+  if (!device.description.empty()) ImGui::TextWrapped("  %s", device.description.c_str());
+  const DeviceLimits& limits = s.run->params().limits;
+  ImGui::Text("limits %.1f N  %.3f N/mm  %.0f N*mm", limits.max_force, limits.max_stiffness,
+              limits.max_torque);
   // The interaction and the wrench.
   ImGui::Text("state:");
   ImGui::SameLine();
   ImGui::TextColored(state_color(out.state), "%s", have_snapshot_ ? state_name(out.state) : "(starting)");
   ImGui::Text("force %.3f N   torque %.2f N*mm", out.force.norm(), out.torque.norm());
-  if (s.device_info.renders_force)
+  if (device.renders_force)
     ImGui::Text("rendered %.3f N (after force safety)", snapshot_.force.norm());
   else
     ImGui::TextDisabled("renders no force: see the arrow and the plot");
@@ -200,15 +176,15 @@ void ViewerApp::panel_status() {
                                 .c_str());
   // The servo loop.
   ImGui::Separator();
-  ImGui::Text("servo %.0f Hz (set %.0f)   t %.1f s", snapshot_.rate_hz, s.rate_hz, snapshot_.t);
+  ImGui::Text("servo %.0f Hz (set %.0f)   t %.1f s", snapshot_.rate_hz, s.run->rate_hz(), snapshot_.t);
   ImGui::Text("cycles %llu   overruns %llu", static_cast<unsigned long long>(snapshot_.cycle),
               static_cast<unsigned long long>(snapshot_.overruns));
   ImGui::Text("step  p50 %.1f  p99 %.1f  max %.1f us", timing_.step_p50, timing_.step_p99, timing_.step_max);
   ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99,
               timing_.jitter_max);
-  if (s.servo) ImGui::TextWrapped("priority: %s", s.servo->realtime_status().c_str());
-  if (s.recorder) {
-    const RecorderStatus record = s.recorder->status();
+  ImGui::TextWrapped("priority: %s", s.run->loop().realtime_status().c_str());
+  if (const Recorder* recorder = s.run->recorder()) {
+    const RecorderStatus record = recorder->status();
     ImGui::Text("recording %s (%llu samples)", options_.record.c_str(),
                 static_cast<unsigned long long>(record.written));
     if (!record.ok) ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", record.message.c_str());
@@ -217,7 +193,7 @@ void ViewerApp::panel_status() {
   for (const DeviceCounter& c : counters_)
     ImGui::Text("  %s: %llu", c.name, static_cast<unsigned long long>(c.value));
   // Tool reset and the global force scale.
-  ImGui::BeginDisabled(s.recorder != nullptr);
+  ImGui::BeginDisabled(s.run->recorder() != nullptr);
   if (ImGui::Button("Reset tool (R)")) restart_servo();
   ImGui::EndDisabled();
   ImGui::SameLine();
@@ -288,7 +264,7 @@ void ViewerApp::panel_view() {
 
 void ViewerApp::panel_lesion() {
   if (!ImGui::CollapsingHeader("Lesion parameters", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  Session& s = *session_;
+  SceneSession& s = *session_;
   if (s.model->lesions.empty()) {
     ImGui::TextDisabled("this scene has no lesions");
     return;
@@ -299,9 +275,10 @@ void ViewerApp::panel_lesion() {
       if (ImGui::Selectable(s.model->lesions[i].name.c_str(), i == panel_.lesion)) panel_.lesion = i;
     ImGui::EndCombo();
   }
-  // The sliders show the UI's copy; each change goes to the servo thread as a ParamChange.
+  // The sliders show the running Params as the servo thread published them; each change goes to it
+  // as a ParamChange (a refused one leaves the slider where it was).
   const auto lesion = static_cast<int16_t>(panel_.lesion);
-  const Material& m = s.shadow.materials[s.model->lesions[panel_.lesion].material];
+  const Material m = s.run->params().materials[s.model->lesions[panel_.lesion].material];
   using F = ParamChange::Field;
   const auto edit = [&](const char* label, F field, double value, double lo, double hi, const char* format,
                         bool log) {
@@ -336,32 +313,22 @@ void ViewerApp::panel_lesion() {
 }
 
 void ViewerApp::post(const ParamChange& change) {
-  if (!session_ || !session_->servo) return;
-  // The servo thread applies it between two steps; the panel's copy follows at once.
-  if (!session_->servo->post(change)) {
+  if (!session_) return;
+  // The servo thread applies it between two steps and publishes the Params the panel shows; a
+  // recorded session notes it as a "param" event.
+  if (!session_->run->post(change)) {
     panel_.message = "The parameter queue is full; try again.";
     panel_.message_is_error = true;
-    return;
-  }
-  apply_param_change(session_->shadow, change);
-  // A recorded session notes the change as a "param" event at the servo time the UI last saw.
-  if (session_->recorder) {
-    RecordedEvent event;
-    event.t = snapshot_.t;
-    event.kind = "param";
-    event.detail = param_field_name(change.field);
-    event.value = change.value;
-    event.lesion = change.lesion;
-    session_->recorder->record_event(event);
   }
 }
 
 void ViewerApp::save_scene() {
-  Session& s = *session_;
-  // Every lesion's material as the panel holds it.
+  SceneSession& s = *session_;
+  // Every lesion's material as the servo thread runs it.
+  const Params& running = s.run->params();
   std::vector<LesionMaterialEdit> edits;
   for (const LesionModel& lesion : s.model->lesions)
-    edits.push_back({lesion.name, s.shadow.materials[lesion.material]});
+    edits.push_back({lesion.name, running.materials[lesion.material]});
   const bool builtin = !builtin_scene_yaml(s.source).empty();
   const std::filesystem::path target =
       builtin ? std::filesystem::path(panel_.save_path) : std::filesystem::path(s.source);

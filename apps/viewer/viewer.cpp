@@ -12,14 +12,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/device/factory.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/servo/device_factory.hpp"
 #include "screenshot.hpp"
 #include "viewer_app.hpp"
 
@@ -37,16 +35,6 @@ std::string& glfw_error() {
 
 void on_glfw_error(int code, const char* description) {
   glfw_error() = fmt::format("GLFW error {}: {}", code, description != nullptr ? description : "");
-}
-
-// The current UTC time, ISO 8601.
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
 }
 
 // FILE.png -> FILE.json.
@@ -73,11 +61,10 @@ std::string headless_message() {
          "display).\n";
 }
 
-Session::~Session() { stop(); }
+SceneSession::~SceneSession() { stop(); }
 
-void Session::stop() {
-  if (servo) servo->stop();
-  if (recorder) recorder->stop();
+void SceneSession::stop() {
+  if (run) run->stop();
 }
 
 ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
@@ -86,13 +73,7 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
   (void)load_scene(options_.scene);
   if (!options_.record.empty() && !options_.overwrite && std::filesystem::exists(options_.record))
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
-  if (options_.device != "mouse") {
-    const std::string_view spec(options_.device);
-    if (spec.starts_with("replay:"))
-      (void)make_replay_device(std::string(spec.substr(7)));
-    else
-      (void)make_device(options_.device);
-  }
+  if (options_.device != "mouse") (void)make_device(options_.device);
   settings_.show_lesions = options_.show_lesions;
 }
 
@@ -171,73 +152,39 @@ void ViewerApp::poll_build() {
   }
 }
 
-std::unique_ptr<Device> ViewerApp::make_session_device(const Model& model) {
-  // The mouse and replay devices are composed here; the rest come from the device factory.
-  if (options_.device == "mouse") return std::make_unique<MouseDevice>(model.tool_home, model.defaults.limits);
-  const std::string_view spec(options_.device);
-  if (spec.starts_with("replay:")) return make_replay_device(std::string(spec.substr(7)));
-  DeviceOptions device_options;
-  device_options.home = model.tool_home;
-  device_options.limits = model.defaults.limits;
-  return make_device(options_.device, device_options);
-}
-
-std::string ViewerApp::parameters_json(const Model& model) const {
-  // Every lesion's top material, as the session record's parameters.
-  JsonWriter json;
-  json.begin_object().key("lesions").begin_array();
-  for (const LesionModel& lesion : model.lesions) {
-    const Material& m = model.defaults.materials[lesion.material];
-    json.begin_object()
-        .field("name", lesion.name)
-        .field("mu_s", m.mu_s)
-        .field("mu_d", m.mu_d)
-        .field("k_e", m.k_e)
-        .field("k_c", m.k_c.at(0.0))
-        .field("stiffness", m.stiffness)
-        .field("f_p_star", m.f_p_star)
-        .field("f_e_star", m.f_e_star)
-        .end_object();
-  }
-  json.end_array().end_object();
-  return json.str();
-}
-
 void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source) {
   // The old loop stops first; its view holds GL objects, freed here on the render thread.
   const bool same_scene = session_ && session_->source == source;
   if (session_) session_->stop();
   session_.reset();
 
-  auto s = std::make_unique<Session>();
+  // The runtime's session: the mouse is composed here, every other device comes from its spec. The
+  // record (--record) covers the first session; a scene change ends it.
+  auto s = std::make_unique<SceneSession>();
   s->source = source;
   s->model = std::move(model);
-  s->rate_hz = options_.rate_hz > 0.0 ? options_.rate_hz : s->model->servo_rate;
-  s->device = make_session_device(*s->model);
-  s->mouse = dynamic_cast<MouseDevice*>(s->device.get());
-  s->replay = dynamic_cast<ReplayDevice*>(s->device.get());
-  s->device_info = s->device->info();
-  s->shadow = s->model->defaults;
-  s->view = std::make_unique<SceneView>(*s->model);
-
-  // The record (--record) covers the first session; a scene change ends it.
+  SessionOptions session_options;
+  session_options.scene = source;
+  session_options.device = options_.device;
+  session_options.rate_hz = options_.rate_hz;
+  session_options.realtime = options_.realtime;
   if (!options_.record.empty() && !record_used_) {
-    SessionInfo info;
-    info.scene = source;
-    info.scene_hash = s->model->scene_hash;
-    info.device = options_.device;
-    info.rate_hz = s->rate_hz;
-    info.parameters = parameters_json(*s->model);
-    info.started_at = utc_now();
-    RecorderOptions record_options;
-    record_options.overwrite = options_.overwrite;
-    s->recorder = std::make_unique<Recorder>(options_.record, info, record_options);
-    s->recorder->start();
+    session_options.record = options_.record;
+    session_options.recorder.overwrite = options_.overwrite;
     record_used_ = true;
   } else if (record_used_) {
     panel_.message = "The record ended with the previous scene (" + options_.record + ").";
     panel_.message_is_error = false;
   }
+  if (options_.device == "mouse")
+    s->run = std::make_unique<Session>(
+        *s->model, std::make_unique<MouseDevice>(s->model->tool_home, s->model->defaults.limits),
+        session_options);
+  else
+    s->run = std::make_unique<Session>(*s->model, session_options);
+  s->mouse = dynamic_cast<MouseDevice*>(&s->run->device());
+  s->replay = dynamic_cast<ReplayDevice*>(&s->run->device());
+  s->view = std::make_unique<SceneView>(*s->model);
 
   // The view: framed on a new scene, the mouse target at the tool's home.
   if (!same_scene) camera_.frame(s->view->bounds());
@@ -248,24 +195,22 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   const auto builtin = std::find(names.begin(), names.end(), source);
   if (builtin != names.end()) panel_.builtin = static_cast<int>(builtin - names.begin());
   session_ = std::move(s);
-  restart_servo();
+  session_->run->start();
+  have_snapshot_ = false;
+  history_.clear();
+  timing_ = TimingReport{};
+  timing_refreshed_ = std::chrono::steady_clock::now();
 }
 
 void ViewerApp::restart_servo() {
-  // A fresh loop (and engine state) on the session's model and device, the mouse back at home.
-  Session& s = *session_;
-  if (s.servo) s.servo->stop();
-  s.servo.reset();
+  // A fresh engine state on the session's model and device (the tuned Params kept), the mouse back
+  // at home. Not while recording: the record's servo clock would start over.
+  SceneSession& s = *session_;
   if (s.mouse != nullptr) {
     s.mouse->jump_to(s.model->tool_home);
     control_.reset(s.model->tool_home);
   }
-  ServoOptions servo_options;
-  servo_options.rate_hz = s.rate_hz;
-  servo_options.realtime = options_.realtime;
-  servo_options.record = s.recorder ? &s.recorder->queue() : nullptr;
-  s.servo = std::make_unique<ServoLoop>(*s.model, *s.device, servo_options);
-  s.servo->start();
+  if (!s.run->restart()) return;
   have_snapshot_ = false;
   history_.clear();
   timing_ = TimingReport{};
@@ -293,24 +238,25 @@ void ViewerApp::handle_input() {
   }
   if (!io.WantCaptureKeyboard) {
     // Keys: R resets the tool, F frames the scene, L reveals or hides the lesions.
-    if (ImGui::IsKeyPressed(GLFW_KEY_R, false) && session_ && !session_->recorder) restart_servo();
+    if (ImGui::IsKeyPressed(GLFW_KEY_R, false) && session_ && session_->run->recorder() == nullptr)
+      restart_servo();
     if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
     if (ImGui::IsKeyPressed(GLFW_KEY_L, false)) settings_.show_lesions = !settings_.show_lesions;
   }
 }
 
 void ViewerApp::read_snapshot() {
-  if (!session_ || !session_->servo) return;
+  if (!session_) return;
   // The newest snapshot (lock-free); the plot keeps a few seconds of them.
-  if (session_->servo->latest(snapshot_)) {
+  if (session_->run->latest(snapshot_)) {
     have_snapshot_ = true;
     history_.add(snapshot_.t, snapshot_.out.force, snapshot_.out.torque);
   }
   // Timing and device counters about once a second.
   const auto now = std::chrono::steady_clock::now();
   if (now - timing_refreshed_ > std::chrono::seconds(1)) {
-    timing_ = session_->servo->timing();
-    counters_ = session_->device->counters();
+    timing_ = session_->run->loop().timing();
+    counters_ = session_->run->device().counters();
     timing_refreshed_ = now;
   }
 }
@@ -370,7 +316,7 @@ int ViewerApp::run() {
     frame_start = std::chrono::steady_clock::now();
   }
   if (session_) session_->stop();
-  if (session_ && session_->servo) timing_ = session_->servo->timing();
+  if (session_) timing_ = session_->run->loop().timing();
   print_summary();
   return 0;
 }
@@ -378,7 +324,7 @@ int ViewerApp::run() {
 void ViewerApp::finish(int width, int height) {
   // Stop the loop (exact timing), then write the screenshot and its status file.
   if (session_) session_->stop();
-  if (session_ && session_->servo) timing_ = session_->servo->timing();
+  if (session_) timing_ = session_->run->loop().timing();
   if (options_.screenshot.empty()) return;
   write_png(read_framebuffer(width, height), options_.screenshot);
   const std::filesystem::path status = status_path(options_.screenshot);
@@ -392,7 +338,7 @@ void ViewerApp::print_summary() const {
   if (!session_) return;
   const StepOutput& out = snapshot_.out;
   std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(), options_.device.c_str(),
-              session_->rate_hz);
+              session_->run->rate_hz());
   std::printf(
       "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
       state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
@@ -400,7 +346,7 @@ void ViewerApp::print_summary() const {
   std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),
-              session_->servo ? session_->servo->realtime_status().c_str() : "-");
+              session_->run->loop().realtime_status().c_str());
   std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50,
               timing_.step_p99, timing_.step_p999, timing_.step_max);
   std::printf("jitter (us):    p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.jitter_p50,

@@ -12,12 +12,10 @@
 #include <vector>
 
 #include "camera.hpp"
-#include "cariesim/device/device.hpp"
-#include "cariesim/record/recorder.hpp"
 #include "cariesim/record/replay.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/servo/servo.hpp"
+#include "cariesim/servo/session.hpp"
 #include "force_history.hpp"
 #include "gl_renderer.hpp"
 #include "mouse_device.hpp"
@@ -28,23 +26,17 @@ struct GLFWwindow;
 
 namespace cariesim::viewer {
 
-/// A model being simulated: its device, the servo loop, the record, and what the panel mirrors.
-/// Members are declared so that destruction stops the loop before the device and the model go.
-struct Session {
+/// A model being simulated: the runtime's Session on it (device, servo loop, record; the running
+/// Params as the servo thread publishes them) and what the viewer draws of it. Members are declared
+/// so that destruction stops the session before the model goes.
+struct SceneSession {
   std::string source;  ///< scene name or file it was built from
   std::unique_ptr<Model> model;
-  std::unique_ptr<Device> device;
+  std::unique_ptr<Session> run;    ///< device, servo loop and record
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
   ReplayDevice* replay = nullptr;  ///< the device when it is a replay
-  std::unique_ptr<Recorder> recorder;
-  std::unique_ptr<ServoLoop> servo;
   std::unique_ptr<SceneView> view;
-  /// The parameters as the UI last set them: the servo thread owns the running ones, and the UI
-  /// applies each ParamChange it posts to this copy too.
-  Params shadow;
-  DeviceInfo device_info;   ///< what the device said it is when the session started
-  double rate_hz = 1000.0;  ///< Hz
-  ~Session();
+  ~SceneSession();
   /// Stops the servo loop, then the recorder (idempotent).
   void stop();
 };
@@ -85,10 +77,8 @@ class ViewerApp {
   // Sessions (viewer.cpp).
   void request_build(const std::string& source);
   void poll_build();
-  std::unique_ptr<Device> make_session_device(const Model& model);
   void start_session(std::unique_ptr<Model> model, const std::string& source);
   void restart_servo();
-  [[nodiscard]] std::string parameters_json(const Model& model) const;
   // Frame work (viewer.cpp).
   void handle_input();
   void read_snapshot();
@@ -115,7 +105,7 @@ class ViewerApp {
   MouseControl control_;
   ViewSettings settings_;
   ForceHistory history_;
-  std::unique_ptr<Session> session_;
+  std::unique_ptr<SceneSession> session_;
   std::unique_ptr<PendingBuild> build_;
   std::string build_error_;
   bool record_used_ = false;  // --record covers the first session only

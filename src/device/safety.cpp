@@ -10,20 +10,10 @@ namespace {
 // A negative value becomes 0 (the safe side), a non-finite one the fallback.
 double sane(double value, double fallback) { return std::isfinite(value) ? std::max(value, 0.0) : fallback; }
 
-// Shortens `v` to length `limit` when it is longer; returns true when it did.
-bool clamp_norm(Vec3& v, double limit) {
-  const double n = v.norm();
-  if (n <= limit) return false;
-  v *= limit / n;
-  return true;
-}
-
 }  // namespace
 
 ForceSafety::ForceSafety(const SafetyParams& params) : params_(params) {
   const SafetyParams defaults;
-  params_.max_force = sane(params.max_force, defaults.max_force);
-  params_.max_torque = sane(params.max_torque, defaults.max_torque);
   params_.ramp_time = sane(params.ramp_time, defaults.ramp_time);
   params_.stale_after = sane(params.stale_after, defaults.stale_after);
   params_.max_jump = sane(params.max_jump, defaults.max_jump);
@@ -71,10 +61,6 @@ void ForceSafety::filter(Vec3& force, Vec3& torque, const DeviceState& input, do
   }
   force *= scale;
   torque *= scale;
-
-  // Clamp to the device's limits (after scaling, so the limit always holds).
-  if (clamp_norm(force, params_.max_force)) flags_ |= kSafetyClampedForce;
-  if (clamp_norm(torque, params_.max_torque)) flags_ |= kSafetyClampedTorque;
 }
 
 }  // namespace cariesim

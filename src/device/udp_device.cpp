@@ -65,12 +65,6 @@ BridgeVerdict verdict_of(bridge::ParseResult r) {
   return BridgeVerdict::Malformed;
 }
 
-// Clamps a vector's length to `limit`.
-Vec3 clamped(const Vec3& v, double limit) {
-  const double n = v.norm();
-  return n > limit ? Vec3(v * (limit / n)) : v;
-}
-
 }  // namespace
 
 const char* bridge_verdict_name(BridgeVerdict verdict) {
@@ -170,11 +164,7 @@ BridgeCounters BridgeInbox::counters() const {
 }
 
 UdpDevice::UdpDevice(const UdpOptions& options)
-    : options_(options),
-      inbox_(options.timeout, options.session_timeout),
-      limit_force_(options.limits.max_force),
-      limit_torque_(options.limits.max_torque),
-      announced_(options.limits) {
+    : options_(options), inbox_(options.timeout, options.session_timeout), announced_(options.limits) {
   latest_.pose = options.home;
 }
 
@@ -232,13 +222,18 @@ void UdpDevice::start() {
   inbound_.read(old_pose);
   bridge::WrenchPacket old_wrench;
   outbound_.read(old_wrench);
+  DeviceLimits old_limits;
+  announced_limits_.read(old_limits);
   latest_.pose = options_.home;
   running_.store(true);
   // Logged before the threads start, so spdlog's default logger (created lazily by the first call)
   // exists before the receiver can log too.
   spdlog::debug("udp device listening on {}:{}", options_.host, bound_port_.load());
   receiver_ = std::thread([this] { receive_loop(); });
-  sender_ = std::thread([this] { send_loop(); });
+  // The sender starts from the ticket as it is now, before any write() or stop() can bump it: a
+  // sender thread scheduled late still sends the first wrench instead of waiting for the second.
+  const uint32_t ticket = outbound_ticket_.load();
+  sender_ = std::thread([this, ticket] { send_loop(ticket); });
 
   // Real-time priority for both threads when asked and allowed: under load a normal-priority thread
   // can wait milliseconds to be scheduled, and every such delay ages the pose or drops a wrench.
@@ -302,19 +297,21 @@ void UdpDevice::receive_loop() {
       inbound_.write(in);
       client_address_.store(source);
     } else if (v == BridgeVerdict::AcceptedHello) {
-      // The device's limits can only lower the simulator's.
+      // The device's limits go to the servo thread as announced; it decides what they change.
       const bridge::HelloPacket& h = inbox_.packet().hello;
+      DeviceLimits limits;
+      limits.max_force = h.max_force;
+      limits.max_stiffness = h.max_stiffness;
+      limits.max_torque = h.max_torque;
+      limits.position_resolution = 0.0;  // not in a hello: the simulator's holds
+      limits.workspace = Eigen::AlignedBox3d(h.workspace_min, h.workspace_max);
+      announced_limits_.write(limits);
       {
         std::lock_guard<std::mutex> lock(info_mutex_);
-        announced_.max_force = std::min(options_.limits.max_force, h.max_force);
-        announced_.max_stiffness = std::min(options_.limits.max_stiffness, h.max_stiffness);
-        announced_.max_torque = std::min(options_.limits.max_torque, h.max_torque);
-        announced_.workspace = Eigen::AlignedBox3d(h.workspace_min, h.workspace_max);
+        announced_ = limits;
+        announced_.position_resolution = options_.limits.position_resolution;
         remote_name_ = std::string(h.name_view());
-        limit_force_.store(announced_.max_force);
-        limit_torque_.store(announced_.max_torque);
       }
-      limits_acknowledged_.store(true);
       client_address_.store(source);
       spdlog::debug("udp device: hello from '{}' ({} N, {} N/mm, {} N·mm)", h.name_view(), h.max_force,
                     h.max_stiffness, h.max_torque);
@@ -322,11 +319,10 @@ void UdpDevice::receive_loop() {
   }
 }
 
-void UdpDevice::send_loop() {
+void UdpDevice::send_loop(uint32_t seen) {
   std::array<uint8_t, bridge::kWrenchSize> buffer{};
-  // The ticket is loaded before running_ is checked, so a stop() that bumps it in between is seen
-  // by wait() instead of being slept through.
-  uint32_t seen = outbound_ticket_.load();
+  // `seen` is the ticket from before this thread started, so a write() or a stop() that bumped it
+  // since is seen by wait() instead of being slept through.
   while (running_.load()) {
     // Sleep until the servo thread writes (or stop() wakes us).
     outbound_ticket_.wait(seen);
@@ -364,19 +360,21 @@ DeviceState UdpDevice::read(double now) {
 
 void UdpDevice::set_status(const DeviceStatus& status) { status_ = status; }
 
+bool UdpDevice::poll_limits(DeviceLimits& out) { return announced_limits_.read(out); }
+
 void UdpDevice::write(const Vec3& force, const Vec3& torque) {
-  // The answer to the pose used this cycle, clamped to the limits the device announced.
+  // The answer to the pose used this cycle: the wrench as given (the servo loop bounded it), with
+  // only non-finite numbers, which the protocol forbids, sent as zero.
   bridge::WrenchPacket w;
   w.sequence = latest_.packet_sequence;
   w.client_time = latest_.client_time;
   w.server_time = last_now_;
-  w.force = clamped(force.allFinite() ? force : Vec3::Zero(), limit_force_.load(std::memory_order_relaxed));
-  w.torque =
-      clamped(torque.allFinite() ? torque : Vec3::Zero(), limit_torque_.load(std::memory_order_relaxed));
-  w.state = static_cast<uint8_t>(status_.state);
+  w.force = force.allFinite() ? force : Vec3::Zero();
+  w.torque = torque.allFinite() ? torque : Vec3::Zero();
+  w.state = status_.state;
   w.depth = std::isfinite(status_.depth) ? status_.depth : 0.0;
   w.flags = static_cast<uint16_t>(status_.safety_flags & 0x7fu);
-  if (limits_acknowledged_.load(std::memory_order_relaxed)) w.flags |= bridge::kWrenchLimitsAcknowledged;
+  if (status_.limits_acknowledged) w.flags |= bridge::kWrenchLimitsAcknowledged;
   if (!have_pose_) return;  // nobody to answer yet
   // Hand it to the sender and wake it (a futex wake when it sleeps; no lock).
   outbound_.write(w);

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 #include "record/event_deriver.hpp"
 #include "record/schema.hpp"
@@ -154,7 +155,7 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
   session.bind(3, info.rate_hz);
   session.bind(4, info.version);
   session.bind(5, info.parameters);
-  session.bind(6, info.started_at.empty() ? record::utc_now_iso8601() : info.started_at);
+  session.bind(6, info.started_at.empty() ? utc_now_iso8601() : info.started_at);
   session.bind(7, options.batch_seconds);
   session.bind(8, options.soft_tissue_threshold);
   if (session.step() != SQLITE_DONE) db.fail("cannot write the session row");
@@ -305,7 +306,7 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
   }
   if (!failed) {
     record::Statement end(db, "UPDATE session SET ended_at = ? WHERE id = 1");
-    end.bind(0, record::utc_now_iso8601());
+    end.bind(0, utc_now_iso8601());
     const int rc = end.step();
     if (rc != SQLITE_DONE) fail("cannot stamp the session's end", rc);
   }

@@ -2,10 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
-#include <cstdio>
-#include <ctime>
-
 #include "cariesim/common/error.hpp"
 
 namespace cariesim::record {
@@ -130,18 +126,6 @@ uint64_t hash_from_hex(const std::string& hex, const std::string& file) {
   }
   if (!ok) throw Error(file + ": session.scene_hash: expected 16 hex digits, got '" + hex + "'");
   return value;
-}
-
-std::string utc_now_iso8601() {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
-  const auto ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
-  std::tm utc{};
-  gmtime_r(&seconds, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &utc);
-  return fmt::format("{}.{:03d}Z", text, static_cast<int>(ms));
 }
 
 }  // namespace cariesim::record

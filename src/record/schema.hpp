@@ -50,7 +50,4 @@ ServoSample read_sample(const Statement& row);
 std::string hash_to_hex(uint64_t hash);
 uint64_t hash_from_hex(const std::string& hex, const std::string& file);
 
-/// The current time as ISO 8601 UTC with milliseconds ("2024-05-01T12:00:00.123Z").
-std::string utc_now_iso8601();
-
 }  // namespace cariesim::record

@@ -1,6 +1,5 @@
 #include "cariesim/scene/trajectory.hpp"
 
-#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -21,16 +20,9 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-[[noreturn]] void fail(const std::string& origin, std::size_t line, std::size_t column, const std::string& what) {
+[[noreturn]] void fail(const std::string& origin, std::size_t line, std::size_t column,
+                       const std::string& what) {
   throw Error(origin + ":" + std::to_string(line) + ":" + std::to_string(column) + ": " + what);
-}
-
-// Interpolates between two samples: linear position, slerp rotation.
-Pose blend(const Pose& a, const Pose& b, double u) {
-  Pose out;
-  out.p = a.p + (b.p - a.p) * u;
-  out.q = a.q.slerp(u, b.q).normalized();
-  return out;
 }
 
 }  // namespace
@@ -68,8 +60,8 @@ Trajectory parse_trajectory_csv(std::string_view text, const std::string& origin
           if (fields[f].first == kColumns[c]) index[c] = static_cast<int>(f);
       for (std::size_t c = 0; c < kColumns.size(); ++c)
         if (index[c] < 0)
-          fail(origin, line_no, 1, "header lacks column '" + std::string(kColumns[c]) +
-                                       "' (expected t,px,py,pz,qw,qx,qy,qz)");
+          fail(origin, line_no, 1,
+               "header lacks column '" + std::string(kColumns[c]) + "' (expected t,px,py,pz,qw,qx,qy,qz)");
       header_seen = true;
       field_count = fields.size();
       continue;
@@ -77,16 +69,16 @@ Trajectory parse_trajectory_csv(std::string_view text, const std::string& origin
 
     // A sample: every standard column must be a finite number.
     if (fields.size() != field_count)
-      fail(origin, line_no, 1, "expected " + std::to_string(field_count) + " fields, found " +
-                                   std::to_string(fields.size()));
+      fail(origin, line_no, 1,
+           "expected " + std::to_string(field_count) + " fields, found " + std::to_string(fields.size()));
     std::array<double, kColumns.size()> v{};
     for (std::size_t c = 0; c < kColumns.size(); ++c) {
       const auto& [field, column] = fields[index[c]];
       double value = 0.0;
       const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
       if (ec != std::errc() || end != field.data() + field.size() || field.empty())
-        fail(origin, line_no, column, "column '" + std::string(kColumns[c]) + "': '" + std::string(field) +
-                                          "' is not a number");
+        fail(origin, line_no, column,
+             "column '" + std::string(kColumns[c]) + "': '" + std::string(field) + "' is not a number");
       if (!std::isfinite(value))
         fail(origin, line_no, column, "column '" + std::string(kColumns[c]) + "' is not finite");
       v[c] = value;
@@ -121,27 +113,6 @@ void save_trajectory_csv(const Trajectory& trajectory, const std::filesystem::pa
     out << trajectory.t[i] << ',' << p.p.x() << ',' << p.p.y() << ',' << p.p.z() << ',' << p.q.w() << ','
         << p.q.x() << ',' << p.q.y() << ',' << p.q.z() << '\n';
   }
-}
-
-Pose Trajectory::sample(double time) const {
-  if (time <= t.front()) return pose.front();
-  if (time >= t.back()) return pose.back();
-  const auto i = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin()) - 1;
-  return blend(pose[i], pose[i + 1], (time - t[i]) / (t[i + 1] - t[i]));
-}
-
-Pose TrajectoryCursor::at(double time) {
-  const Trajectory& tr = *trajectory_;
-  if (time <= tr.t.front()) {
-    segment_ = 0;
-    return tr.pose.front();
-  }
-  if (time >= tr.t.back()) return tr.pose.back();
-  // Restart the walk when time went backwards.
-  if (segment_ >= tr.t.size() - 1 || tr.t[segment_] > time) segment_ = 0;
-  while (tr.t[segment_ + 1] < time) ++segment_;
-  const double u = (time - tr.t[segment_]) / (tr.t[segment_ + 1] - tr.t[segment_]);
-  return blend(tr.pose[segment_], tr.pose[segment_ + 1], u);
 }
 
 }  // namespace cariesim

@@ -17,7 +17,6 @@ namespace cariesim {
 
 namespace {
 
-constexpr double kMaxRateHz = 10000.0;
 constexpr int kMaxChangesPerCycle = 32;  // parameter changes applied between two steps, at most
 
 // Single-writer increment of an atomic counter (no read-modify-write needed).
@@ -25,7 +24,41 @@ void bump(std::atomic<uint64_t>& counter) {
   counter.store(counter.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
 }
 
+// The bridge protocol's state byte (DeviceStatus::state) of an interaction state.
+uint8_t state_code(InteractionState state) {
+  switch (state) {
+    case InteractionState::Free:
+      return 0;
+    case InteractionState::Sliding:
+      return 1;
+    case InteractionState::Inserting:
+      return 2;
+    case InteractionState::Extracting:
+      return 3;
+  }
+  return 0;
+}
+
+// The running Params a loop starts with: the given ones, checked against the model, or its own.
+PublishedParams starting_params(const Model& model, Device& device, const ServoOptions& options) {
+  PublishedParams p;
+  p.params = options.params ? *options.params : initial_params(model, device.info().limits);
+  if (p.params.materials.size() != model.defaults.materials.size())
+    throw Error("servo: the starting Params hold " + std::to_string(p.params.materials.size()) +
+                " materials, the model " + std::to_string(model.defaults.materials.size()));
+  return p;
+}
+
 }  // namespace
+
+void check_servo_rate(double rate_hz) {
+  if (!(rate_hz > 0.0 && rate_hz <= kMaxServoRate))
+    throw Error("servo rate " + std::to_string(rate_hz) + " Hz is outside (0, 10000]");
+}
+
+Params initial_params(const Model& model, const DeviceLimits& device) {
+  return with_device_limits(model.defaults, device);
+}
 
 TimingHistogram& TimingHistogram::operator=(const TimingHistogram& other) {
   if (this == &other) return *this;
@@ -79,18 +112,20 @@ void TimingHistogram::reset() {
 }
 
 ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& options)
-    : model_(model), device_(device), options_(options), dt_(0.0), period_ns_(0) {
-  if (!(options.rate_hz > 0.0 && options.rate_hz <= kMaxRateHz))
-    throw Error("servo rate " + std::to_string(options.rate_hz) + " Hz is outside (0, 10000]");
+    : model_(model),
+      device_(device),
+      params_(starting_params(model, device, options)),
+      options_(options),
+      dt_(0.0),
+      period_ns_(0),
+      safety_(options.safety),
+      params_out_(params_) {
+  check_servo_rate(options.rate_hz);
   period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.rate_hz));
   dt_ = static_cast<double>(period_ns_) * 1e-9;
-  // The safety limits: the lower of the options' and the device's.
-  SafetyParams params = options.safety;
-  const DeviceLimits limits = device.info().limits;
-  params_ = with_device_limits(model.defaults, limits);
-  params.max_force = std::min(params.max_force, limits.max_force);
-  params.max_torque = std::min(params.max_torque, limits.max_torque);
-  safety_ = ForceSafety(params);
+  options_.params.reset();  // held in params_
+  // The starting Params are published at once; later versions reuse the slots' memory.
+  params_out_.write(params_);
   state_ = std::make_unique<State>(model, model.tool_home);
   last_good_ = state_->graphic();
 }
@@ -168,13 +203,15 @@ void ServoLoop::run() {
     elapsed_.store(elapsed_before + static_cast<double>(end - start_ns) * 1e-9, std::memory_order_relaxed);
   }
   // Leave the device with no force, and continue the servo clock at the next start.
-  device_.set_status(DeviceStatus{state_->interaction(), state_->depth(), 0, 0});
+  device_.set_status(
+      DeviceStatus{state_code(state_->interaction()), state_->depth(), 0, 0, limits_announced_});
   device_.write(Vec3::Zero(), Vec3::Zero());
   time_base_ = t + dt_;
 }
 
-int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
+bool ServoLoop::update_params() {
   // Parameter changes queued by the UI, applied between two steps.
+  bool changed = false;
   ParamChange change;
   for (int i = 0; i < kMaxChangesPerCycle && changes_.pop(change); ++i) {
     bool applied = false;
@@ -182,21 +219,57 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
       applied = std::isfinite(change.value) && change.value >= 0.0 && change.value <= 1.0;
       if (applied) safety_.set_force_scale(change.value);
     } else {
-      applied = apply_param_change(params_, change);
+      applied = apply_param_change(params_.params, change);
+      changed = changed || applied;
     }
     if (!applied) bump(rejected_changes_);
   }
 
+  // Limits the device announced: checked (a device that renders no torque announces 0), then the
+  // scene's within them, the coupling stiffness no higher than the new maximum (eq. 6's k_p);
+  // the materials keep what the user changed. Refused limits leave the Params as they were.
+  DeviceLimits announced;
+  if (device_.poll_limits(announced)) {
+    DeviceLimits checked = announced;
+    if (checked.max_torque == 0.0) checked.max_torque = kMaxDeviceTorque;
+    const DeviceLimits limits = tighter(model_.defaults.limits, announced);
+    if (check_limits(checked) || limits.workspace.isEmpty()) {
+      bump(refused_limits_);
+      limits_announced_ = false;
+    } else {
+      params_.params.limits = limits;
+      params_.params.gains.k_trans = std::min(model_.defaults.gains.k_trans, limits.max_stiffness);
+      limits_announced_ = true;
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   // Read the device; an unusable reading is replaced by the last good pose.
   const DeviceState input = device_.read(t);
   if (input.valid && input.pose.finite()) last_good_ = input.pose;
 
-  // Step the engine with the fixed dt, filter the wrench, render it.
-  const StepOutput out = step(model_, params_, *state_, HapticInput{last_good_, dt_});
+  // Changes and announced limits, after the reading: limits a device announced before the pose it
+  // sent are in force for that pose's wrench. A new version of the Params is published (into the
+  // buffer's reserved slots).
+  if (update_params()) {
+    ++params_.version;
+    params_out_.write(params_);
+  }
+
+  // Step the engine with the fixed dt (its output stage clamps the wrench to the Params' limits),
+  // filter the wrench, render it. The wrench flags carry the step's clamp beside the safety layer's.
+  const StepOutput out = step(model_, params_.params, *state_, HapticInput{last_good_, dt_});
   Vec3 force = out.force;
   Vec3 torque = out.torque;
   safety_.filter(force, torque, input, t);
-  device_.set_status(DeviceStatus{out.state, out.depth, safety_.flags(), out.flags});
+  uint32_t wrench_flags = safety_.flags();
+  if ((out.flags & kFlagForceClamped) != 0) wrench_flags |= kSafetyClampedForce;
+  if ((out.flags & kFlagTorqueClamped) != 0) wrench_flags |= kSafetyClampedTorque;
+  device_.set_status(
+      DeviceStatus{state_code(out.state), out.depth, wrench_flags, out.flags, limits_announced_});
   device_.write(force, torque);
 
   // Timing of this cycle's work; an overrun ended after the next deadline.
@@ -219,12 +292,13 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   snapshot_.device = input;
   snapshot_.force = force;
   snapshot_.torque = torque;
-  snapshot_.safety_flags = safety_.flags();
+  snapshot_.safety_flags = wrench_flags;
   snapshot_.t = t;
   snapshot_.cycle = cycles;
   snapshot_.overruns = overruns_.load(std::memory_order_relaxed);
   snapshot_.rate_hz = measured_rate_;
   snapshot_.safety_faults = safety_.faults();
+  snapshot_.params_version = params_.version;
   snapshots_.write(snapshot_);
 
   // The sample for the recorder; dropped (and counted) when its queue is full.
@@ -239,7 +313,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
     s.step_us = static_cast<float>(out.step_us);
     s.soft_tissue_force = static_cast<float>(out.soft_tissue_force);
     s.step_flags = out.flags;
-    s.safety_flags = safety_.flags();
+    s.safety_flags = wrench_flags;
     s.contacts = static_cast<uint16_t>(std::clamp(out.contacts, 0, 65535));
     s.lesion = static_cast<int8_t>(std::clamp(out.lesion, -1, 127));
     s.state = out.state;

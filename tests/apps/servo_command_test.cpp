@@ -64,6 +64,13 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
   const Recording rec = load_recording(db);
   EXPECT_EQ(rec.info.scene, "friction-block");
   EXPECT_EQ(rec.info.device, "scripted:" + path.string());
+  // The session row is the viewer's: the scene's hash and the running parameters as JSON.
+  EXPECT_EQ(rec.info.scene_hash, test::friction_block().scene_hash);
+  EXPECT_NE(rec.info.scene_hash, 0u);
+  EXPECT_THAT(rec.info.parameters, HasSubstr("\"lesions\":[{\"name\":"));
+  EXPECT_THAT(rec.info.parameters, HasSubstr("\"limits\":{\"max_force\":22"));
+  EXPECT_DOUBLE_EQ(rec.info.rate_hz, 1000.0);
+  EXPECT_FALSE(rec.info.started_at.empty());
   ASSERT_GT(rec.samples.size(), 500u);
   bool touched = false;
   for (const ServoSample& s : rec.samples) {

@@ -1,5 +1,6 @@
-// ForceSafety on its own: clamping, ramp, scale, staleness, non-finite and invalid input, jumps, the
-// fault counter. The loop-level acceptance test is tests/servo/safety_loop_test.cpp.
+// ForceSafety on its own: ramp, scale, staleness, non-finite and invalid input, jumps, the fault
+// counter; it never clamps (the step's output stage does, tests/servo/safety_loop_test.cpp checks
+// the rendered wrench through the loop).
 #include "cariesim/device/safety.hpp"
 
 #include <gtest/gtest.h>
@@ -24,11 +25,12 @@ SafetyParams no_ramp() {
   return p;
 }
 
-TEST(ForceSafety, DefaultsAreThePhantomPremium) {
+TEST(ForceSafety, Defaults) {
   const ForceSafety safety;
-  EXPECT_DOUBLE_EQ(safety.params().max_force, 22.0);
+  EXPECT_DOUBLE_EQ(safety.params().ramp_time, 1.0);
   EXPECT_DOUBLE_EQ(safety.params().stale_after, 0.05);
   EXPECT_DOUBLE_EQ(safety.params().force_scale, 1.0);
+  EXPECT_DOUBLE_EQ(safety.params().max_jump, 20.0);
 }
 
 TEST(ForceSafety, PassesAWrenchWithinTheLimits) {
@@ -41,15 +43,16 @@ TEST(ForceSafety, PassesAWrenchWithinTheLimits) {
   EXPECT_EQ(safety.faults(), 0u);
 }
 
-TEST(ForceSafety, ClampsForceAndTorqueKeepingTheirDirection) {
+TEST(ForceSafety, NeverClampsOrRaisesAWrench) {
+  // Far above any device's limits: passed unchanged (the step's output stage is the one clamp), and
+  // never a clamp flag.
   ForceSafety safety(no_ramp());
-  Vec3 f(30, 40, 0), t(0, 0, -1000);  // 50 N, 1000 N·mm
+  Vec3 f(300, 400, 0), t(0, 0, -1e4);
   safety.filter(f, t, reading(0.0), 0.0);
-  EXPECT_NEAR(f.norm(), 22.0, 1e-12);
-  EXPECT_TRUE(f.normalized().isApprox(Vec3(0.6, 0.8, 0.0)));
-  EXPECT_NEAR(t.norm(), 500.0, 1e-12);
-  EXPECT_LT(t.z(), 0.0);
-  EXPECT_EQ(safety.flags(), kSafetyClampedForce | kSafetyClampedTorque);
+  EXPECT_EQ(f, Vec3(300, 400, 0));
+  EXPECT_EQ(t, Vec3(0, 0, -1e4));
+  EXPECT_EQ(safety.flags() & (kSafetyClampedForce | kSafetyClampedTorque), 0u);
+  EXPECT_EQ(safety.flags(), 0u);
 }
 
 TEST(ForceSafety, RampsInLinearlyFromStart) {
@@ -86,17 +89,14 @@ TEST(ForceSafety, RampsInAgainAfterAFault) {
   EXPECT_NEAR(f.z(), 2.0, 1e-9);
 }
 
-TEST(ForceSafety, ScaleAppliesBeforeTheClamp) {
+TEST(ForceSafety, ScaleLowersForceAndTorque) {
   ForceSafety safety(no_ramp());
   safety.set_force_scale(0.5);
   Vec3 f(0, 0, 10), t(0, 0, 100);
   safety.filter(f, t, reading(0.0), 0.0);
   EXPECT_DOUBLE_EQ(f.z(), 5.0);
   EXPECT_DOUBLE_EQ(t.z(), 50.0);
-  f = Vec3(0, 0, 100);  // 50 N after scaling: still clamped to 22 N
-  safety.filter(f, t, reading(0.0), 0.0);
-  EXPECT_NEAR(f.z(), 22.0, 1e-12);
-  // The scale stays in [0, 1]; NaN gives 0.
+  // The scale stays in [0, 1] (it can only lower a wrench); NaN gives 0.
   safety.set_force_scale(3.0);
   EXPECT_DOUBLE_EQ(safety.params().force_scale, 1.0);
   safety.set_force_scale(-1.0);
@@ -177,12 +177,14 @@ TEST(ForceSafety, AJumpIsAFaultForOneReading) {
 
 TEST(ForceSafety, OutOfRangeParametersAreMadeSafe) {
   SafetyParams p;
-  p.max_force = -5.0;
-  p.max_torque = std::nan("");
+  p.stale_after = -5.0;
+  p.max_jump = std::nan("");
+  p.ramp_time = std::numeric_limits<double>::infinity();
   p.force_scale = 7.0;
   const ForceSafety safety(p);
-  EXPECT_DOUBLE_EQ(safety.params().max_force, 0.0);     // negative: nothing is rendered
-  EXPECT_DOUBLE_EQ(safety.params().max_torque, 500.0);  // not finite: the default
+  EXPECT_DOUBLE_EQ(safety.params().stale_after, 0.0);  // negative: every old reading is stale
+  EXPECT_DOUBLE_EQ(safety.params().max_jump, 20.0);    // not finite: the default
+  EXPECT_DOUBLE_EQ(safety.params().ramp_time, 1.0);
   EXPECT_DOUBLE_EQ(safety.params().force_scale, 1.0);
 }
 

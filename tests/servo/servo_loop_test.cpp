@@ -1,6 +1,7 @@
 // ServoLoop with the real engine on the built-in friction-block scene: cycles happen, snapshots
-// arrive, samples flow (and drops are counted), parameter changes reach the model, start/stop/start
-// works, and the running cycle allocates nothing. No wall-clock timing is asserted.
+// arrive, samples flow (and drops are counted), parameter changes reach the running Params and are
+// published, a device's announced limits tighten them, start/stop/start works, and the running cycle
+// allocates nothing. No wall-clock timing is asserted.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -42,11 +43,13 @@ class HoldDevice : public Device {
     writes.fetch_add(1, std::memory_order_relaxed);
   }
   void set_status(const DeviceStatus& status) override { last_status = status; }
+  bool poll_limits(DeviceLimits& out) override { return announced.read(out); }
 
   std::atomic<int> starts{0}, stops{0};
   std::atomic<uint64_t> reads{0}, writes{0};
   Vec3 last_force = Vec3::Constant(-1.0), last_torque = Vec3::Zero();
   DeviceStatus last_status;
+  TripleBuffer<DeviceLimits> announced;  // what the test "device" announces (test -> servo thread)
 
  private:
   Pose pose_;
@@ -198,6 +201,14 @@ TEST(ServoLoop, ParamChangesReachTheModel) {
   ServoSnapshot s;
   ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 5; }));
 
+  // The starting Params are published first, as version 0, and the snapshots say so.
+  PublishedParams published;
+  ASSERT_TRUE(loop.latest_params(published));
+  EXPECT_EQ(published.version, 0u);
+  EXPECT_EQ(s.params_version, 0u);
+  EXPECT_EQ(published.params.materials.size(), m.defaults.materials.size());
+  EXPECT_FALSE(loop.latest_params(published));  // nothing new
+
   EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::MuS, 0, 0.9}));
   EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::KE, 0, 0.7}));
   EXPECT_TRUE(loop.post(ParamChange{ParamChange::Field::MuS, 3, 0.2}));  // no lesion 3: refused
@@ -207,14 +218,110 @@ TEST(ServoLoop, ParamChangesReachTheModel) {
     return loop.latest(s) && s.out.force.norm() > 0.05 && (s.force - 0.5 * s.out.force).norm() < 1e-9;
   }));
   ASSERT_TRUE(wait_for([&] { return loop.rejected_changes() == 1; }));
-  loop.stop();
 
-  for (const Material& mat : loop.params().materials) {
+  // The applied changes are published while the loop runs: a new version the snapshots carry too.
+  ASSERT_TRUE(wait_for([&] {
+    loop.latest_params(published);
+    return published.version > 0;
+  }));
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.params_version >= published.version; }));
+  loop.stop();
+  loop.latest_params(published);
+  int lesion_materials = 0;
+  for (const Material& mat : published.params.materials) {
     if (mat.lesion != 0) continue;
     EXPECT_DOUBLE_EQ(mat.mu_s, 0.9);
     EXPECT_DOUBLE_EQ(mat.k_e, 0.7);
+    ++lesion_materials;
   }
+  EXPECT_GT(lesion_materials, 0);
   for (const Material& mat : m.defaults.materials) EXPECT_NE(mat.mu_s, 0.9);  // the Model never changes
+}
+
+TEST(ServoLoop, AnnouncedLimitsTightenTheParamsAndKeepTunedMaterials) {
+  Model m = friction_block();
+  HoldDevice d(pressing(m, 1.0));
+  ServoOptions o = quiet_options();
+  o.safety.ramp_time = 0.0;
+  ServoLoop loop(m, d, o);
+  PublishedParams published;
+  ASSERT_TRUE(loop.latest_params(published));
+  EXPECT_DOUBLE_EQ(published.params.limits.max_force, m.defaults.limits.max_force);
+  loop.start();
+  ServoSnapshot s;
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.cycle >= 5; }));
+
+  // A tuned material, then the device announces lower limits (and a torque-free device: 0 N·mm).
+  ASSERT_TRUE(loop.post(ParamChange{ParamChange::Field::MuS, 0, 0.9}));
+  DeviceLimits announced;
+  announced.max_force = 2.0;
+  announced.max_stiffness = 0.25;
+  announced.max_torque = 0.0;
+  announced.workspace = Eigen::AlignedBox3d(Vec3::Constant(-50), Vec3::Constant(50));
+  d.announced.write(announced);
+  ASSERT_TRUE(wait_for([&] {
+    loop.latest_params(published);
+    return published.params.limits.max_force == 2.0;
+  }));
+  ASSERT_TRUE(wait_for([&] {
+    loop.latest_params(published);
+    return published.params.materials[m.lesions[0].material].mu_s == 0.9;
+  }));
+  const Params& p = published.params;
+  EXPECT_DOUBLE_EQ(p.limits.max_stiffness, 0.25);
+  EXPECT_DOUBLE_EQ(p.limits.max_torque, 0.0);
+  EXPECT_DOUBLE_EQ(p.gains.k_trans, 0.25);  // coupling at most the device's stiffness
+  EXPECT_DOUBLE_EQ(p.limits.position_resolution, m.defaults.limits.position_resolution);
+  EXPECT_TRUE(p.limits.workspace.isApprox(m.defaults.limits.workspace.intersection(announced.workspace)));
+  // The rendered wrench holds them.
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.params_version == published.version; }));
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_TRUE(wait_for([&] { return loop.latest(s); }));
+    EXPECT_LE(s.force.norm(), 2.0 + 1e-9);
+    EXPECT_TRUE(s.torque.isZero());
+  }
+
+  // Limits no device could have are refused and change nothing; higher ones than the scene's are
+  // held to the scene's.
+  DeviceLimits absurd = announced;
+  absurd.max_force = 1e9;
+  d.announced.write(absurd);
+  ASSERT_TRUE(wait_for([&] { return loop.refused_limits() == 1; }));
+  DeviceLimits strong = announced;
+  strong.max_force = 500.0;
+  strong.max_stiffness = 50.0;
+  strong.max_torque = 1e4;
+  d.announced.write(strong);
+  ASSERT_TRUE(wait_for([&] {
+    loop.latest_params(published);
+    return published.params.limits.max_force == m.defaults.limits.max_force;
+  }));
+  loop.stop();
+  EXPECT_DOUBLE_EQ(published.params.limits.max_stiffness, m.defaults.limits.max_stiffness);
+  EXPECT_DOUBLE_EQ(published.params.limits.max_torque, m.defaults.limits.max_torque);
+  EXPECT_DOUBLE_EQ(published.params.gains.k_trans, m.defaults.gains.k_trans);
+  EXPECT_DOUBLE_EQ(published.params.materials[m.lesions[0].material].mu_s, 0.9);
+  EXPECT_TRUE(d.last_status.limits_acknowledged);
+  EXPECT_EQ(loop.refused_limits(), 1u);
+}
+
+TEST(ServoLoop, StartsFromGivenParamsMadeForItsModel) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  ServoOptions o = quiet_options();
+  o.params = m.defaults;
+  o.params->materials[m.lesions[0].material].mu_s = 0.42;
+  ServoLoop loop(m, d, o);
+  PublishedParams published;
+  ASSERT_TRUE(loop.latest_params(published));
+  EXPECT_DOUBLE_EQ(published.params.materials[m.lesions[0].material].mu_s, 0.42);
+  o.params->materials.pop_back();  // made for another model
+  try {
+    ServoLoop wrong(m, d, o);
+    ADD_FAILURE() << "accepted Params with another material count";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("materials"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ServoLoop, RunningCyclesAllocateNothing) {
@@ -247,6 +354,7 @@ TEST(ServoLoop, RunningCyclesAllocateNothing) {
   EXPECT_EQ(after - before, 0u);
   EXPECT_GE(s.cycle, cycles_before + 100);
   EXPECT_EQ(loop.rejected_changes(), 0u);
+  EXPECT_GT(s.params_version, 0u);  // the changes were applied and published inside the window
 }
 
 TEST(ServoLoop, RealtimeRequestIsAnswered) {

@@ -1,9 +1,11 @@
 #pragma once
-/// The monotonic clock the servo loop, the device bridge and its clients share (CLOCK_MONOTONIC).
+/// The monotonic clock the servo loop, the device bridge and its clients share (CLOCK_MONOTONIC),
+/// and the one wall-clock time stamp of records (UTC, ISO 8601).
 #include <time.h>
 
 #include <cerrno>
 #include <cstdint>
+#include <string>
 
 namespace cariesim {
 
@@ -22,5 +24,9 @@ inline void sleep_until_ns(int64_t deadline_ns) {
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
 }
+
+/// The current wall-clock time as ISO 8601 UTC with milliseconds ("2024-05-01T12:00:00.123Z"): when
+/// a recorded session started and ended. Not for the servo thread (it allocates).
+std::string utc_now_iso8601();
 
 }  // namespace cariesim

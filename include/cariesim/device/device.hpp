@@ -3,6 +3,10 @@
 /// torque, device info). The servo thread calls read() and write() once per cycle: implementations
 /// must not block, lock, allocate or do slow I/O there. Backends: null, scripted trajectory, replay of
 /// a recording, mouse (in the viewer), UDP bridge (docs/device-bridge.md).
+///
+/// The device module is a leaf (docs/architecture.md): it knows math and its own types only. What
+/// the engine says goes in as plain codes (DeviceStatus); devices are made from spec strings one
+/// level up, by the runtime (servo/device_factory.hpp).
 
 #include <cstdint>
 #include <memory>
@@ -11,7 +15,6 @@
 
 #include "cariesim/common/math.hpp"
 #include "cariesim/device/limits.hpp"
-#include "cariesim/render/step.hpp"
 
 namespace cariesim {
 
@@ -36,10 +39,13 @@ struct DeviceState {
 
 /// What the simulator reports alongside each wrench (the UDP bridge forwards it to its client).
 struct DeviceStatus {
-  InteractionState state = InteractionState::Free;  ///< the engine's interaction state
-  double depth = 0.0;                               ///< mm, insertion depth
-  uint32_t safety_flags = 0;                        ///< SafetyFlag bits of this cycle's wrench
-  uint32_t step_flags = 0;                          ///< StepFlag bits of this cycle's step
+  /// The engine's interaction state as the bridge protocol's state byte (docs/device-bridge.md):
+  /// 0 free, 1 sliding, 2 inserting, 3 extracting. The servo loop converts its InteractionState.
+  uint8_t state = 0;
+  double depth = 0.0;                ///< mm, insertion depth
+  uint32_t safety_flags = 0;         ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
+  uint32_t step_flags = 0;           ///< the engine step's flag bits (render/step.hpp StepFlag)
+  bool limits_acknowledged = false;  ///< the limits the device announced last (poll_limits) are in force
 };
 
 /// A named event counter of a device (e.g. the UDP bridge's rejected packets), for panels and notes.
@@ -66,6 +72,13 @@ class Device {
   virtual void write(const Vec3& force, const Vec3& torque) = 0;
   /// The state that goes with the next write() (called just before it). Servo thread; non-blocking.
   virtual void set_status(const DeviceStatus& status) { (void)status; }
+  /// Limits the device announced since the last call (e.g. a UDP client's hello), raw: the servo
+  /// loop checks them and tightens its own to them. True, with `out` set, when there are new ones.
+  /// Servo thread; non-blocking, allocation-free. Devices that never announce anything return false.
+  virtual bool poll_limits(DeviceLimits& out) {
+    (void)out;
+    return false;
+  }
   /// Event counters (any thread; may allocate). Empty for devices without any.
   [[nodiscard]] virtual std::vector<DeviceCounter> counters() const { return {}; }
 };

@@ -1,13 +1,13 @@
 #pragma once
 /// The devices that need no hardware: `null` (holds the tool still) and `scripted:FILE[:loop]`
-/// (follows a trajectory CSV on the servo clock). The UDP bridge is in udp_device.hpp, the replay
-/// device in record/recorder.hpp, the mouse in the viewer.
+/// (follows a trajectory on the servo clock; servo/device_factory.hpp reads it from a CSV file). The
+/// UDP bridge is in udp_device.hpp, the replay device in record/replay.hpp, the mouse in the viewer.
 
 #include <cstdint>
 #include <string>
 
+#include "cariesim/common/trajectory.hpp"
 #include "cariesim/device/device.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 

@@ -1,12 +1,13 @@
 #pragma once
-/// The force safety layer every device goes through (DESIGN.md §5): clamp force and torque to the
-/// device's limits, ramp in at start, zero force when the input is stale or not finite, a global
-/// force scale. Allocation-free; used on the servo thread.
+/// The force safety layer every device goes through (DESIGN.md §5): ramp in at start, zero force when
+/// the input is stale or not finite, a global force scale. Allocation-free; used on the servo thread.
 ///
 /// A reading is a fault, and the wrench is zeroed, when it is marked invalid, is not finite (pose,
 /// or the wrench itself), is older than `stale_after`, or jumped further than `max_jump` from the
 /// previous reading. After a fault clears the force ramps in again from zero over `ramp_time`, as
-/// at start. The scale applies before the clamp, so the rendered force never exceeds the limits.
+/// at start. The layer only ever scales the wrench down (by at most 1) or zeroes it: the one clamp
+/// to the device's limits is the haptic step's output stage (against Params::limits, which hold what
+/// the device announced), so a wrench that went through both never exceeds the limits.
 
 #include <cstdint>
 
@@ -14,40 +15,45 @@
 
 namespace cariesim {
 
+/// How the safety layer judges readings and scales the wrench.
 struct SafetyParams {
-  double max_force = 22.0;    ///< N (Phantom Premium 3.0 6-DoF)
-  double max_torque = 500.0;  ///< N·mm
   double ramp_time = 1.0;     ///< s, from zero to full force after start (and after a fault clears)
   double stale_after = 0.05;  ///< s, a reading older than this zeroes the force
   double force_scale = 1.0;   ///< global scale in [0, 1]
   double max_jump = 20.0;     ///< mm, a larger move between two readings is a fault
 };
 
-/// Why the last wrench was changed.
+/// What happened to a cycle's wrench on its way to the device, as records (`safety_flags`) and the
+/// UDP bridge (bits 0-6 of its wrench flags) report it.
 enum SafetyFlag : uint32_t {
+  /// The step's output stage clamped the force to the device's maximum. Set by the servo loop from
+  /// the step's flags (ForceSafety clamps nothing and never sets it).
   kSafetyClampedForce = 1u << 0,
-  kSafetyClampedTorque = 1u << 1,
-  kSafetyRamping = 1u << 2,
-  kSafetyStale = 1u << 3,
-  kSafetyNonFinite = 1u << 4,
-  kSafetyInvalidInput = 1u << 5,
-  kSafetyJump = 1u << 6,  ///< the reading jumped further than SafetyParams::max_jump
+  kSafetyClampedTorque = 1u << 1,  ///< the same for the torque
+  kSafetyRamping = 1u << 2,        ///< ramping in after start or after a fault
+  kSafetyStale = 1u << 3,          ///< the reading is older than SafetyParams::stale_after; zeroed
+  kSafetyNonFinite = 1u << 4,      ///< the reading or the wrench is not finite; zeroed
+  kSafetyInvalidInput = 1u << 5,   ///< the reading is marked invalid (none yet, or ended); zeroed
+  kSafetyJump = 1u << 6,           ///< the reading jumped further than SafetyParams::max_jump; zeroed
 };
 /// The flags that mean the force was zeroed.
 inline constexpr uint32_t kSafetyFaultMask =
     kSafetyStale | kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump;
 
+/// The safety filter of one servo loop (servo thread only, apart from the const accessors).
 class ForceSafety {
  public:
-  /// Takes the parameters; out-of-range values are brought into range (negative limits become 0,
-  /// the scale is clamped to [0, 1], non-finite values fall back to the defaults).
+  /// Takes the parameters; out-of-range values are brought into range (negative times and jumps
+  /// become 0, the scale is clamped to [0, 1], non-finite values fall back to the defaults).
   explicit ForceSafety(const SafetyParams& params = {});
-  /// Filters a wrench for the reading `input` at servo time `now` (s). Returns the wrench to render.
+  /// Filters a wrench (N, N·mm) in place for the reading `input` at servo time `now` (s): zeroed on a
+  /// fault, otherwise scaled by the ramp and the global scale (never up).
   void filter(Vec3& force, Vec3& torque, const DeviceState& input, double now);
   [[nodiscard]] uint32_t flags() const { return flags_; }    ///< SafetyFlag bits of the last call
   [[nodiscard]] uint64_t faults() const { return faults_; }  ///< calls that zeroed the force
   /// Sets the global scale; clamped to [0, 1], a non-finite value gives 0.
   void set_force_scale(double scale);
+  /// The parameters in force (after bringing them into range).
   [[nodiscard]] const SafetyParams& params() const { return params_; }
   /// Forgets the previous reading and restarts the ramp (a new start of the loop); keeps the counter.
   void reset();

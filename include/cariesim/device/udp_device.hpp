@@ -2,7 +2,9 @@
 /// The UDP bridge device (`udp:PORT[:HOST]`, docs/device-bridge.md). A receiver thread parses client
 /// datagrams strictly (BridgeInbox) and hands the newest valid pose to the servo thread through a
 /// TripleBuffer; the servo thread's write() hands the wrench to a sender thread through another
-/// TripleBuffer and wakes it. The servo thread never touches the socket, never locks, never allocates.
+/// TripleBuffer and wakes it; a hello's limits reach the servo thread through a third (poll_limits).
+/// The servo thread never touches the socket, never locks, never allocates. The bridge sends the
+/// wrench it is given: the servo loop's Params, tightened to the announced limits, bound it.
 
 #include <array>
 #include <atomic>
@@ -12,9 +14,9 @@
 #include <thread>
 #include <vector>
 
+#include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/udp_protocol.hpp"
-#include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim {
 
@@ -97,8 +99,10 @@ struct UdpOptions {
   std::string host = "127.0.0.1";  ///< address to bind ("0.0.0.0" for every interface)
   double timeout = 0.05;           ///< s, largest transit delay of an accepted pose
   double session_timeout = 1.0;    ///< s, silence after which another client may connect
-  DeviceLimits limits;             ///< the simulator's limits; a hello can only lower them
-  Pose home;                       ///< reported before the first pose arrives
+  /// What info() reports until a hello announces the device's own limits (the factory passes the
+  /// scene's). The bridge itself enforces nothing: the servo loop tightens its Params to a hello's.
+  DeviceLimits limits;
+  Pose home;  ///< reported before the first pose arrives
   /// SCHED_FIFO priority asked for the receiver and sender threads (1-99; 0: normal priority). Below
   /// the servo thread's 80 by default, above everything else, so a loaded machine does not delay
   /// the poses and wrenches; when refused the threads run at normal priority (see realtime_status()).
@@ -112,6 +116,8 @@ class UdpDevice : public Device {
   UdpDevice(const UdpDevice&) = delete;
   UdpDevice& operator=(const UdpDevice&) = delete;
 
+  /// name "udp", the address (and the remote device's name after a hello), the limits the client
+  /// announced last (UdpOptions::limits before a hello).
   [[nodiscard]] DeviceInfo info() const override;
   /// Binds the socket and starts the receiver and sender threads; throws cariesim::Error naming the
   /// address when the socket cannot be bound.
@@ -120,6 +126,8 @@ class UdpDevice : public Device {
   DeviceState read(double now) override;
   void write(const Vec3& force, const Vec3& torque) override;
   void set_status(const DeviceStatus& status) override;
+  /// A hello's limits (as announced; the resolution, which a hello does not carry, as 0), once.
+  bool poll_limits(DeviceLimits& out) override;
   [[nodiscard]] std::vector<DeviceCounter> counters() const override;
   /// The counters as a struct (any thread).
   [[nodiscard]] BridgeCounters bridge_counters() const;
@@ -141,7 +149,7 @@ class UdpDevice : public Device {
     uint64_t count = 0;        // accepted poses so far
   };
   void receive_loop();
-  void send_loop();
+  void send_loop(uint32_t seen);  // `seen`: the wrench ticket when start() made the thread
 
   UdpOptions options_;
   int socket_ = -1;
@@ -149,17 +157,16 @@ class UdpDevice : public Device {
   std::atomic<uint16_t> bound_port_{0};
   std::thread receiver_, sender_;
   BridgeInbox inbox_;
-  uint64_t accepted_ = 0;                           // receiver thread
-  TripleBuffer<Inbound> inbound_;                   // receiver -> servo
-  TripleBuffer<bridge::WrenchPacket> outbound_;     // servo -> sender
-  std::atomic<uint32_t> outbound_ticket_{0};        // bumped per write; the sender waits on it
-  std::atomic<uint64_t> client_address_{0};         // IPv4 address << 16 | port (network order); 0 = none
-  std::atomic<double> limit_force_, limit_torque_;  // N, N·mm: min(simulator, announced)
-  std::atomic<bool> limits_acknowledged_{false};
+  uint64_t accepted_ = 0;                        // receiver thread
+  TripleBuffer<Inbound> inbound_;                // receiver -> servo
+  TripleBuffer<bridge::WrenchPacket> outbound_;  // servo -> sender
+  TripleBuffer<DeviceLimits> announced_limits_;  // receiver -> servo, per hello
+  std::atomic<uint32_t> outbound_ticket_{0};     // bumped per write; the sender waits on it
+  std::atomic<uint64_t> client_address_{0};      // IPv4 address << 16 | port (network order); 0 = none
   std::atomic<uint64_t> sent_{0}, send_errors_{0};
   std::string realtime_status_;    // set by start(), read under info_mutex_
-  mutable std::mutex info_mutex_;  // guards announced_ (never taken by the servo thread)
-  DeviceLimits announced_;
+  mutable std::mutex info_mutex_;  // guards announced_ and remote_name_ (never the servo thread's)
+  DeviceLimits announced_;         // what info() reports
   std::string remote_name_;
   // Servo thread only.
   Inbound latest_;

@@ -77,7 +77,7 @@ struct HelloPacket {
 struct WrenchPacket {
   uint32_t sequence = 0;       ///< echo of the pose packet this wrench answers
   uint16_t flags = 0;          ///< SafetyFlag bits (0-6) and WrenchFlag bits
-  uint8_t state = 0;           ///< InteractionState: 0 free, 1 sliding, 2 inserting, 3 extracting
+  uint8_t state = 0;           ///< interaction state: 0 free, 1 sliding, 2 inserting, 3 extracting
   double server_time = 0.0;    ///< s, the simulator's servo clock
   double client_time = 0.0;    ///< s, echo of that pose packet's client time
   Vec3 force = Vec3::Zero();   ///< N, world, at the tool-frame origin (the tip sphere's centre)

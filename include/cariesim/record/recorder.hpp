@@ -17,8 +17,8 @@
 #include <thread>
 #include <vector>
 
-#include "cariesim/device/device.hpp"
-#include "cariesim/servo/servo.hpp"
+#include "cariesim/common/lockfree.hpp"
+#include "cariesim/record/sample.hpp"
 
 namespace cariesim {
 
@@ -29,9 +29,9 @@ struct SessionInfo {
   std::string device;                      ///< device spec, e.g. "udp:47000"
   double rate_hz = 1000.0;                 ///< Hz, the servo rate (also the expected sample rate)
   std::string version = CARIESIM_VERSION;  ///< cariesim version that recorded
-  std::string parameters;                  ///< JSON of the lesion/material parameters at start
-  std::string started_at;                  ///< ISO 8601, UTC; the recorder fills it in when empty
-  std::string ended_at;                    ///< ISO 8601, UTC, set by Recorder::stop(); empty after a crash
+  std::string parameters;                  ///< JSON of the running parameters at start (docs/records.md)
+  std::string started_at;  ///< ISO 8601, UTC (utc_now_iso8601); the recorder fills it in when empty
+  std::string ended_at;    ///< ISO 8601, UTC, set by Recorder::stop(); empty after a crash
 };
 
 /// One row of the `events` table (kinds and the meaning of `value` per kind: docs/records.md).
@@ -78,7 +78,7 @@ class Recorder {
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
-  /// The queue the servo loop pushes samples into (ServoOptions::record).
+  /// The queue the servo loop pushes samples into (ServoOptions::record in servo/servo.hpp).
   SpscQueue<ServoSample>& queue() { return *queue_; }
   /// Starts the writer thread.
   void start();
@@ -126,10 +126,5 @@ struct ExportSummary {
 /// `cariesim sim` trajectory format) into `dir`, creating it. Columns and units: docs/records.md.
 /// Throws cariesim::Error naming the file and the problem.
 ExportSummary export_recording_csv(const std::filesystem::path& file, const std::filesystem::path& dir);
-
-/// A device that plays a recording back (its haptic poses, in time). It is a ReplayDevice
-/// (record/replay.hpp): dynamic_cast to it for the recorded graphic pose (the ghost tool).
-/// Throws cariesim::Error when the file cannot be read or holds no samples.
-std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bool loop = false);
 
 }  // namespace cariesim

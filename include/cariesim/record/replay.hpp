@@ -4,7 +4,7 @@
 /// (linear in position, slerp in rotation), so the engine re-runs the session; the recorded graphic
 /// pose (what the trainee saw) is there for the viewer to draw as a ghost tool:
 ///
-///   auto device = make_replay_device(file);                       // record/recorder.hpp
+///   auto device = make_replay_device(file);
 ///   auto* replay = dynamic_cast<ReplayDevice*>(device.get());
 ///   ... each frame, with the servo snapshot's time t:
 ///   const Pose ghost = replay->recorded_graphic(snapshot.t);
@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -71,5 +72,10 @@ class ReplayDevice : public Device {
   std::size_t cursor_ = 0;            // servo thread's segment
   uint64_t sequence_ = 0;
 };
+
+/// A device that plays a recording back (its haptic poses, in time): a ReplayDevice, dynamic_cast
+/// to it for the recorded graphic pose (the ghost tool). Throws cariesim::Error when the file cannot
+/// be read or holds no samples.
+std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bool loop = false);
 
 }  // namespace cariesim

@@ -1,42 +1,26 @@
 #pragma once
 /// The real-time servo loop (DESIGN.md §5): a thread stepping the haptic engine at a fixed rate with
 /// absolute deadlines, reading a device, filtering the wrench through ForceSafety and writing it back.
-/// It shares no lock with anyone: the latest state goes out through a TripleBuffer, parameter changes
-/// come in through an SpscQueue, samples go to the recorder through another SpscQueue.
+/// It shares no lock with anyone: the latest state and the running Params go out through
+/// TripleBuffers, parameter changes come in through an SpscQueue, samples go to the recorder through
+/// another SpscQueue. Session (servo/session.hpp) builds a loop with its device and recorder.
 
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 
+#include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/device/safety.hpp"
+#include "cariesim/record/sample.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/render/step.hpp"
-#include "cariesim/servo/lockfree.hpp"
 
 namespace cariesim {
-
-/// One recorded sample (servo -> recorder), at the servo rate.
-struct ServoSample {
-  double t = 0.0;  ///< s since the loop started
-  Pose haptic;
-  Pose graphic;
-  Vec3 force = Vec3::Zero();       ///< N, rendered (after safety)
-  Vec3 torque = Vec3::Zero();      ///< N·mm, rendered
-  float depth = 0.0f;              ///< mm
-  float step_us = 0.0f;            ///< µs
-  float soft_tissue_force = 0.0f;  ///< N
-  uint32_t step_flags = 0;         ///< StepFlag bits
-  uint32_t safety_flags = 0;       ///< SafetyFlag bits
-  uint16_t contacts = 0;
-  int8_t lesion = -1;
-  InteractionState state = InteractionState::Free;
-  bool overrun = false;  ///< this cycle missed its deadline
-  uint32_t buttons = 0;
-};
 
 /// Step time and loop jitter, as a fixed-bin histogram (allocation-free to fill). One thread adds;
 /// any thread may read at the same time (the bins are atomics: a reading taken while values are
@@ -67,8 +51,8 @@ class TimingHistogram {
   std::atomic<double> max_{0.0};
 };
 
-/// Timing of a loop. "Step" is one cycle's work from wake-up to the device write: parameter changes,
-/// device read, engine step, safety; "jitter" is how late the thread woke up after its deadline. An
+/// Timing of a loop. "Step" is one cycle's work from wake-up to the device write: device read,
+/// parameter changes, engine step, safety; "jitter" is how late the thread woke up after its deadline. An
 /// overrun is a cycle whose work ended after the next deadline.
 struct TimingReport {
   double step_p50 = 0, step_p99 = 0, step_p999 = 0, step_max = 0;          ///< µs
@@ -90,28 +74,57 @@ struct ServoSnapshot {
   uint64_t overruns = 0;
   double rate_hz = 0.0;        ///< measured over the last second
   uint64_t safety_faults = 0;  ///< cycles whose force ForceSafety zeroed, so far
+  /// Version of the running Params: 0 as the loop started, +1 whenever a change applied or the
+  /// device's announced limits tightened them (ServoLoop::latest_params hands out that version).
+  uint64_t params_version = 0;
+};
+
+/// The running Params as the servo thread published them.
+struct PublishedParams {
+  Params params;         ///< materials, coupling gains, device limits in force
+  uint64_t version = 0;  ///< ServoSnapshot::params_version they belong to
 };
 
 struct ServoOptions {
-  double rate_hz = 1000.0;     ///< Hz, 1 kHz default, up to 10 kHz
-  bool realtime = true;        ///< ask for SCHED_FIFO (reports when refused)
-  int realtime_priority = 80;  ///< SCHED_FIFO priority asked for (1-99)
-  SafetyParams safety;
+  double rate_hz = 1000.0;                   ///< Hz, 1 kHz default, up to 10 kHz
+  bool realtime = true;                      ///< ask for SCHED_FIFO (reports when refused)
+  int realtime_priority = 80;                ///< SCHED_FIFO priority asked for (1-99)
+  SafetyParams safety;                       ///< ramp, staleness, jump, global force scale
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
+  /// The Params to start from (e.g. a restarted session's, with what the user tuned); their material
+  /// count must be the model's. Default: initial_params(model, device limits).
+  std::optional<Params> params;
 };
 
+/// Hz, the fastest servo rate.
+inline constexpr double kMaxServoRate = 10000.0;
+/// Throws cariesim::Error when `rate_hz` is outside (0, kMaxServoRate].
+void check_servo_rate(double rate_hz);
+
+/// The Params a loop starts from: the model's authored ones (Model::defaults) within the limits of
+/// a device (with_device_limits: the tighter limits, the coupling stiffness at most the device's).
+Params initial_params(const Model& model, const DeviceLimits& device);
+
 /// The servo thread. Per cycle, at absolute deadlines (CLOCK_MONOTONIC, TIMER_ABSTIME) spaced by the
-/// fixed period 1/rate_hz: apply queued parameter changes, read the device, step the engine with
-/// dt = 1/rate_hz (never the measured delta), filter the wrench through ForceSafety, write it to the
-/// device, publish a snapshot, push a sample. A reading that is invalid or not finite is replaced by
-/// the last good pose (the safety layer zeroes the force). The cycle allocates nothing, takes no
-/// lock and does no I/O. When the loop falls more than a period behind, it skips the missed
-/// deadlines instead of running them back to back (the servo clock follows the wall clock).
+/// fixed period 1/rate_hz: read the device, apply queued parameter changes and limits the device
+/// announced (its Params), step the engine with dt = 1/rate_hz (never the measured delta), filter
+/// the wrench through ForceSafety, write it to the device, publish a snapshot (and the Params when
+/// they changed), push a sample. A reading that is invalid or not finite is replaced by the last
+/// good pose (the safety layer zeroes the force). The cycle allocates nothing, takes no lock and
+/// does no I/O. When the loop falls more than a period behind, it skips the missed deadlines
+/// instead of running them back to back (the servo clock follows the wall clock).
+///
+/// Limits: the step clamps the wrench to Params::limits (the one clamp). They start as the scene's
+/// within the device's (initial_params); when the device announces limits (Device::poll_limits) and
+/// check_limits accepts them, they become the scene's within the announced ones, the coupling
+/// stiffness at most the new maximum stiffness (eq. 6's k_p is that maximum); the materials, with
+/// whatever the user changed, stay.
 class ServoLoop {
  public:
-  /// The loop owns a State for `model` and the running Params (the model's defaults within the
-  /// device's limits; changes arrive through post()); `model` and `device` must outlive it. Throws
-  /// cariesim::Error when rate_hz is outside (0, 10000].
+  /// The loop owns a State for `model` and the running Params (options.params, or the model's
+  /// defaults within the device's limits; changes arrive through post()); `model` and `device` must
+  /// outlive it. Throws cariesim::Error when rate_hz is outside (0, 10000] or options.params were
+  /// made for another model.
   ServoLoop(const Model& model, Device& device, const ServoOptions& options);
   ~ServoLoop();
   ServoLoop(const ServoLoop&) = delete;
@@ -135,8 +148,11 @@ class ServoLoop {
   [[nodiscard]] uint64_t dropped_samples() const { return dropped_.load(); }
   /// Parameter changes that did not apply (apply_param_change returned false).
   [[nodiscard]] uint64_t rejected_changes() const { return rejected_changes_.load(); }
-  /// The running parameters (the servo thread's); read them only while the loop is stopped.
-  [[nodiscard]] const Params& params() const { return params_; }
+  /// Device limit announcements refused (check_limits found a problem).
+  [[nodiscard]] uint64_t refused_limits() const { return refused_limits_.load(); }
+  /// The running Params, if the servo thread published a new version since the last call (one
+  /// reader thread; the first call after construction always gets the starting ones).
+  bool latest_params(PublishedParams& out) { return params_out_.read(out); }
   /// The fixed step, 1 / rate_hz (s).
   [[nodiscard]] double dt() const { return dt_; }
 
@@ -145,20 +161,24 @@ class ServoLoop {
   /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
   /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
   int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
+  /// Applies queued changes and announced limits to params_; true when they changed. Servo thread.
+  bool update_params();
   const Model& model_;
   Device& device_;
-  Params params_;  // servo thread only while running
+  PublishedParams params_;  // the running Params and their version; servo thread only while running
   ServoOptions options_;
   double dt_;  // s
   int64_t period_ns_;
   std::unique_ptr<State> state_;
   ForceSafety safety_;
   TripleBuffer<ServoSnapshot> snapshots_;
+  TripleBuffer<PublishedParams> params_out_;  // slots sized for the model's materials at construction
   SpscQueue<ParamChange> changes_{256};
   std::thread thread_;
   std::atomic<bool> running_{false};
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> rejected_changes_{0};
+  std::atomic<uint64_t> refused_limits_{0};
   std::string realtime_status_;
   TimingHistogram step_hist_, jitter_hist_;
   std::atomic<uint64_t> cycles_{0}, overruns_{0};
@@ -167,6 +187,7 @@ class ServoLoop {
   // Servo thread only.
   Pose last_good_;
   ServoSnapshot snapshot_;
+  bool limits_announced_ = false;  // the device announced limits and they are in force
   int64_t rate_mark_ns_ = 0;
   uint64_t rate_mark_cycles_ = 0;
   double measured_rate_ = 0.0;

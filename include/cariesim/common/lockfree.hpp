@@ -1,8 +1,9 @@
 #pragma once
 /// Lock-free hand-offs between the servo thread and the rest (DESIGN.md §5): a triple buffer for
-/// "latest state" (servo -> viewer) and a bounded single-producer single-consumer queue for messages
-/// (viewer -> servo parameter changes, servo -> recorder samples). Neither blocks nor allocates after
-/// construction.
+/// "latest value" (servo -> viewer snapshots and parameters, the UDP bridge's receiver -> servo) and a
+/// bounded single-producer single-consumer queue for messages (viewer -> servo parameter changes,
+/// servo -> recorder samples). Neither blocks nor allocates after construction (a TripleBuffer of a
+/// type that holds a vector: when every value written has the size of the one it was made with).
 
 #include <array>
 #include <atomic>
@@ -16,6 +17,11 @@ namespace cariesim {
 template <typename T>
 class TripleBuffer {
  public:
+  /// Three value-initialised slots; nothing is published.
+  TripleBuffer() = default;
+  /// Fills the three slots with `initial`, so writing values of its size later copies into memory
+  /// reserved here (e.g. a Params whose materials vector keeps its length). Nothing is published.
+  explicit TripleBuffer(const T& initial) : slots_{initial, initial, initial} {}
   /// Publishes a value (one writer thread).
   void write(const T& value) {
     slots_[back_] = value;

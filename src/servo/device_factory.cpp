@@ -1,4 +1,6 @@
-#include "cariesim/device/factory.hpp"
+// The device factory (servo/device_factory.hpp): spec strings to devices of the device module, the
+// record module's replay device and scene trajectory files.
+#include "cariesim/servo/device_factory.hpp"
 
 #include <charconv>
 #include <string_view>
@@ -6,7 +8,8 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/udp_device.hpp"
-#include "cariesim/record/recorder.hpp"
+#include "cariesim/record/replay.hpp"
+#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 
@@ -37,8 +40,7 @@ std::unique_ptr<Device> make_scripted(const std::string& spec, std::string_view 
   }
 }
 
-// `replay:FILE[:loop]`: the record module's replay device (cariesim_record, which needs nothing from
-// this library, so linking it here makes no cycle).
+// `replay:FILE[:loop]`: the record module's replay device.
 std::unique_ptr<Device> make_replay(const std::string& spec, std::string_view rest) {
   const bool loop = strip_loop(rest);
   if (rest.empty()) bad_spec(spec, "missing recording file (expected replay:FILE[:loop])");

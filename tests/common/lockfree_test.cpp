@@ -1,6 +1,6 @@
 // The lock-free hand-offs of the servo loop: TripleBuffer (latest value) and SpscQueue (FIFO),
 // single-threaded semantics and multi-threaded stress tests (run them under ThreadSanitizer too).
-#include "cariesim/servo/lockfree.hpp"
+#include "cariesim/common/lockfree.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,6 +8,9 @@
 #include <atomic>
 #include <cstdint>
 #include <thread>
+#include <vector>
+
+#include "support/alloc_counter.hpp"
 
 namespace cariesim {
 namespace {
@@ -62,6 +65,25 @@ TEST(TripleBuffer, ManyAlternationsKeepValues) {
     ASSERT_TRUE(tb.read(out));
     EXPECT_EQ(out, k % 3 == 0 ? 2 * k + 1 : 2 * k);
   }
+}
+
+TEST(TripleBuffer, SlotsSizedAtConstructionTakeWritesWithoutAllocating) {
+  // Made from a value holding a vector, every slot holds a vector of that size: writing values of the
+  // same size copies into that memory (the servo thread's Params publication relies on it).
+  const std::vector<double> initial(64, 1.0);
+  TripleBuffer<std::vector<double>> tb(initial);
+  std::vector<double> out;
+  EXPECT_FALSE(tb.read(out));  // constructing publishes nothing
+  std::vector<double> value(64);
+  const std::size_t before = test::allocation_count();
+  for (int k = 0; k < 10; ++k) {
+    value.assign(64, static_cast<double>(k));
+    tb.write(value);
+  }
+  const std::size_t after = test::allocation_count();
+  EXPECT_EQ(after - before, 0u);
+  ASSERT_TRUE(tb.read(out));
+  EXPECT_EQ(out, std::vector<double>(64, 9.0));
 }
 
 TEST(TripleBuffer, StressOneWriterOneReader) {

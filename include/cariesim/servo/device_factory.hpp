@@ -1,20 +1,22 @@
 #pragma once
 /// Devices from a spec string (the `--device` option of `cariesim run` and `cariesim servo`): `null`,
-/// `scripted:FILE[:loop]`, `replay:FILE[:loop]` (a session recording, through make_replay_device of
-/// record/recorder.hpp; cariesim_runtime links cariesim_record for it), `udp:PORT[:HOST]`. `mouse`
-/// lives in the viewer, which composes it.
+/// `scripted:FILE[:loop]` (a trajectory CSV, scene/trajectory.hpp), `replay:FILE[:loop]` (a session
+/// recording, record/replay.hpp), `udp:PORT[:HOST]`. The factory lives in the runtime because it
+/// reaches up to scene and record; the device module below it knows none of them. `mouse` lives in
+/// the viewer, which composes it and hands it to a Session (servo/session.hpp).
 
 #include <memory>
 #include <string>
 
 #include "cariesim/device/device.hpp"
+#include "cariesim/device/limits.hpp"
 
 namespace cariesim {
 
 /// What a device needs to know about the scene it drives.
 struct DeviceOptions {
   Pose home;            ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
-  DeviceLimits limits;  ///< the simulator's device limits (Model::limits)
+  DeviceLimits limits;  ///< the simulator's device limits (Model::defaults.limits), which info() reports
   double udp_timeout = 0.05;  ///< s, the UDP bridge's largest accepted transit delay
   bool realtime = true;       ///< the UDP bridge's threads ask for SCHED_FIFO (UdpOptions::realtime_priority)
 };

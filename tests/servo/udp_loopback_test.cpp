@@ -1,7 +1,8 @@
 // The UDP bridge end to end over loopback: a client socket streams poses to a UdpDevice driven by a
 // real ServoLoop on friction-block; wrenches come back echoing the sequence numbers; malformed,
 // truncated, out-of-order, duplicate, stale, non-finite, non-unit and foreign packets are rejected and
-// counted while the loop runs on; silence zeroes the force. No wall-clock timing is asserted.
+// counted while the loop runs on; silence zeroes the force; a hello's limits bound the wrench and set
+// the coupling stiffness through the servo loop's Params. No wall-clock timing is asserted.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -74,12 +75,12 @@ Bytes pose_packet(uint32_t sequence, double client_time, const Pose& pose) {
   return b;
 }
 
-Bytes hello_packet(uint32_t sequence, double max_force) {
+Bytes hello_packet(uint32_t sequence, double max_force, double max_stiffness = 1.0) {
   bridge::HelloPacket h;
   h.sequence = sequence;
   h.client_time = client_clock();
   h.max_force = max_force;
-  h.max_stiffness = 1.0;
+  h.max_stiffness = max_stiffness;
   h.max_torque = 300.0;
   h.workspace_min = Vec3::Constant(-100);
   h.workspace_max = Vec3::Constant(100);
@@ -144,7 +145,8 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   }));
 
   // Wrenches echo sent sequence numbers (and their client times), in order, within the announced
-  // 5 N; the tool pressed on the block.
+  // 5 N (the servo loop's Params took the hello's limits; the bridge sends what it is given); the
+  // tool pressed on the block.
   EXPECT_EQ(invalid, 0);
   uint32_t previous = 0;
   int pressing = 0, acknowledged = 0;
@@ -161,6 +163,11 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   EXPECT_EQ(acknowledged, static_cast<int>(wrenches.size()));
   EXPECT_NE(bridge.device.info().description.find("loopback test"), std::string::npos);
   EXPECT_DOUBLE_EQ(bridge.device.info().limits.max_force, 5.0);
+  PublishedParams published;
+  ASSERT_TRUE(test::wait_for([&] {
+    bridge.loop.latest_params(published);
+    return published.params.limits.max_force == 5.0;
+  }));
 
   // Bad packets, while the loop runs.
   const uint64_t cycles_before = bridge.loop.timing().cycles;
@@ -239,6 +246,80 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   EXPECT_TRUE(found_stale);
   EXPECT_GT(bridge.device.bridge_counters().sent, 0u);
   EXPECT_EQ(bridge.device.bridge_counters().send_errors, 0u);
+}
+
+// Force per mm of haptic-graphic offset (N/mm) over the cycles of `samples` that slid with the force
+// fully ramped in and a fresh pose; 0 when none did.
+double felt_stiffness(const std::vector<ServoSnapshot>& samples, int& counted) {
+  double sum = 0.0;
+  counted = 0;
+  for (const ServoSnapshot& s : samples) {
+    const double offset = (s.out.graphic.p - s.out.haptic.p).norm();
+    if (s.out.state != InteractionState::Sliding || s.safety_flags != 0 || offset < 0.1) continue;
+    sum += s.force.norm() / offset;
+    ++counted;
+  }
+  return counted > 0 ? sum / counted : 0.0;
+}
+
+TEST(UdpLoopback, AnnouncedStiffnessSetsTheCouplingAndIsReported) {
+  // A client announcing 1 N/mm presses 1 mm into the block and slides; then it announces 0.01 N/mm
+  // (a new session) and slides on. The wrench for a given haptic-graphic offset is 100x smaller:
+  // the coupling (and eq. 6's k_p) is the device's maximum stiffness, within the scene's.
+  Model model = test::friction_block();
+  Bridge bridge(model);
+  bridge.loop.start();
+  Client client(bridge.device.port());
+  const Trajectory path = test::press_and_slide(model, 1.0, 2.0);
+  TrajectoryCursor cursor(path);
+  std::vector<bridge::WrenchPacket> wrenches;
+  int invalid = 0;
+  uint32_t seq = 0;
+  // Streams poses of path times [from, to) at ~1 kHz and keeps the snapshots after `measure_from`.
+  const auto stream = [&](double from, double to, double measure_from, std::vector<ServoSnapshot>& out) {
+    ServoSnapshot s;
+    for (double t = from; t < to; t += 0.001) {
+      client.send(pose_packet(seq++, client_clock(), cursor.at(t)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      if (bridge.loop.latest(s) && t >= measure_from) out.push_back(s);
+      client.drain(wrenches, invalid);
+    }
+  };
+  PublishedParams published;
+  const auto wait_stiffness = [&](double k) {
+    return test::wait_for([&] {
+      bridge.loop.latest_params(published);
+      return published.params.limits.max_stiffness == k;
+    });
+  };
+
+  // 1 N/mm: pressed and sliding from path time 0.4 s on.
+  client.send(hello_packet(seq++, 22.0, 1.0));
+  ASSERT_TRUE(wait_stiffness(1.0));
+  std::vector<ServoSnapshot> stiff, soft;
+  stream(0.0, 0.9, 0.4, stiff);
+  // 0.01 N/mm: the servo thread tightens its Params; measured once they are in force.
+  client.send(hello_packet(seq++, 22.0, 0.01));
+  ASSERT_TRUE(wait_stiffness(0.01));
+  EXPECT_DOUBLE_EQ(published.params.gains.k_trans, 0.01);
+  stream(0.9, 1.8, 1.0, soft);
+  bridge.loop.stop();
+
+  int n_stiff = 0, n_soft = 0;
+  const double k_stiff = felt_stiffness(stiff, n_stiff);
+  const double k_soft = felt_stiffness(soft, n_soft);
+  ASSERT_GT(n_stiff, 20);
+  ASSERT_GT(n_soft, 20);
+  EXPECT_NEAR(k_stiff, 1.0, 1e-6);
+  EXPECT_NEAR(k_soft, 0.01, 1e-8);
+  EXPECT_NEAR(k_stiff / k_soft, 100.0, 1e-3);
+
+  // The limits are reported: by the device (as announced), in the published Params, to the client.
+  EXPECT_DOUBLE_EQ(bridge.device.info().limits.max_stiffness, 0.01);
+  EXPECT_DOUBLE_EQ(published.params.limits.max_stiffness, 0.01);
+  ASSERT_FALSE(wrenches.empty());
+  EXPECT_NE(wrenches.back().flags & bridge::kWrenchLimitsAcknowledged, 0);
+  EXPECT_EQ(invalid, 0);
 }
 
 TEST(UdpLoopback, StreamingAllocatesNothing) {

@@ -1,0 +1,173 @@
+// The house of docs/architecture.md, enforced: every `#include "cariesim/<module>/..."` (and every
+// private `#include "<module>/..."`) in include/cariesim/, src/ and apps/ must follow an arrow the
+// table below allows. The table is the drawing's: modules include only modules drawn below them, and
+// nothing points from device, record or render back up. A failure names the file, the line and the
+// forbidden arrow.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace cariesim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The modules and what each may include (besides itself), bottom up as docs/architecture.md draws
+// them. `servo` is the runtime; `apps` are the command line and the viewer.
+const std::map<std::string, std::set<std::string>>& allowed() {
+  static const std::map<std::string, std::set<std::string>> table = [] {
+    std::map<std::string, std::set<std::string>> t;
+    t["common"] = {};
+    t["device"] = {"common"};  // a leaf: math and its own types only
+    t["geometry"] = {"common"};
+    t["spheretree"] = {"common", "geometry"};
+    t["collision"] = {"common", "geometry", "spheretree"};
+    t["solver"] = {"common"};
+    t["render"] = {"common", "device", "geometry", "spheretree", "collision", "solver"};
+    // Every module above render may include everything drawn below it.
+    const std::vector<std::string> upper = {"scene", "experiment", "record", "servo", "training", "apps"};
+    std::set<std::string> below = t["render"];
+    below.insert("render");
+    for (const std::string& module : upper) {
+      t[module] = below;
+      below.insert(module);
+    }
+    return t;
+  }();
+  return table;
+}
+
+// One forbidden include.
+struct Violation {
+  std::string file;
+  int line = 0;
+  std::string from, to, text;
+};
+
+// The module an include names, or "" when it names none: "cariesim/<module>/..." (public) or
+// "<module>/..." for a known module (a module's private header under src/).
+std::string included_module(const std::string& path) {
+  std::string rest = path;
+  if (rest.rfind("cariesim/", 0) == 0) rest = rest.substr(9);
+  const std::size_t slash = rest.find('/');
+  if (slash == std::string::npos) return "";
+  const std::string module = rest.substr(0, slash);
+  if (allowed().count(module) == 0) return path.rfind("cariesim/", 0) == 0 ? module : "";
+  return module;
+}
+
+// Checks one file's text as part of `module`; appends what breaks the table.
+void check_text(const std::string& file, const std::string& module, const std::string& text,
+                std::vector<Violation>& out) {
+  std::istringstream lines(text);
+  std::string line;
+  int number = 0;
+  while (std::getline(lines, line)) {
+    ++number;
+    // `#include "x"` or `#include <x>`, spaces allowed after the '#'.
+    std::size_t p = line.find_first_not_of(" \t");
+    if (p == std::string::npos || line[p] != '#') continue;
+    p = line.find_first_not_of(" \t", p + 1);
+    if (p == std::string::npos || line.compare(p, 7, "include") != 0) continue;
+    p = line.find_first_of("\"<", p + 7);
+    if (p == std::string::npos) continue;
+    const std::size_t end = line.find(line[p] == '"' ? '"' : '>', p + 1);
+    if (end == std::string::npos) continue;
+    const std::string target = included_module(line.substr(p + 1, end - p - 1));
+    if (target.empty() || target == module) continue;
+    const auto rule = allowed().find(module);
+    if (rule == allowed().end() || rule->second.count(target) == 0)
+      out.push_back({file, number, module, target, line});
+  }
+}
+
+// The module a file belongs to: include/cariesim/<m>/..., src/<m>/..., apps/... ("" for none).
+std::string file_module(const fs::path& relative) {
+  auto it = relative.begin();
+  if (it == relative.end()) return "";
+  const std::string top = it->string();
+  if (top == "apps") return "apps";
+  if (top == "include" && ++it != relative.end() && it->string() == "cariesim" && ++it != relative.end())
+    return it->string();
+  if (top == "src" && ++it != relative.end()) return it->string();
+  return "";
+}
+
+bool is_source(const fs::path& p) {
+  const std::string ext = p.extension().string();
+  return ext == ".hpp" || ext == ".cpp" || ext == ".h" || ext == ".cc";
+}
+
+std::string describe(const std::vector<Violation>& violations) {
+  std::string text;
+  for (const Violation& v : violations)
+    text += v.file + ":" + std::to_string(v.line) + ": " + v.from + " -> " + v.to +
+            " is not an arrow of docs/architecture.md (" + v.text + ")\n";
+  return text;
+}
+
+TEST(IncludeGraph, TheCheckerFindsAForbiddenArrow) {
+  // The checker itself: an arrow back up from each of device, record and render is reported with
+  // its line; allowed arrows, std headers and a module's own headers are not.
+  std::vector<Violation> v;
+  check_text(
+      "device/x.hpp", "device",
+      "#include <vector>\n#include \"cariesim/common/math.hpp\"\n# include \"cariesim/render/step.hpp\"\n",
+      v);
+  check_text("record/x.cpp", "record", "#include \"cariesim/device/device.hpp\"\n#include \"servo/x.hpp\"\n",
+             v);
+  check_text("render/x.cpp", "render",
+             "#include \"render/internal.hpp\"\n#include <cariesim/scene/scene.hpp>\n", v);
+  ASSERT_EQ(v.size(), 3u) << describe(v);
+  EXPECT_EQ(v[0].line, 3);
+  EXPECT_EQ(v[0].to, "render");
+  EXPECT_EQ(v[1].from, "record");
+  EXPECT_EQ(v[1].to, "servo");
+  EXPECT_EQ(v[2].to, "scene");
+  // An unknown public module is an arrow nowhere in the house.
+  v.clear();
+  check_text("apps/x.cpp", "apps", "#include \"cariesim/gui/window.hpp\"\n", v);
+  EXPECT_EQ(v.size(), 1u);
+}
+
+TEST(IncludeGraph, EveryIncludeFollowsTheHouse) {
+  // Every public header, every private source and every app file, by module.
+  const fs::path root = CARIESIM_SOURCE_DIR;
+  std::vector<Violation> violations;
+  std::set<std::string> seen;
+  int files = 0;
+  for (const char* top : {"include/cariesim", "src", "apps"}) {
+    ASSERT_TRUE(fs::is_directory(root / top)) << (root / top);
+    for (const auto& entry : fs::recursive_directory_iterator(root / top)) {
+      if (!entry.is_regular_file() || !is_source(entry.path())) continue;
+      const fs::path relative = fs::relative(entry.path(), root);
+      const std::string module = file_module(relative);
+      if (module.empty()) continue;  // e.g. a file directly under src/
+      seen.insert(module);
+      ++files;
+      // A folder that is no module of the house is a failure too: draw it first.
+      if (allowed().count(module) == 0) {
+        ADD_FAILURE() << relative.string() << ": module '" << module << "' is not in docs/architecture.md";
+        continue;
+      }
+      std::ifstream in(entry.path(), std::ios::binary);
+      std::ostringstream text;
+      text << in.rdbuf();
+      check_text(relative.string(), module, text.str(), violations);
+    }
+  }
+  EXPECT_TRUE(violations.empty()) << describe(violations);
+  // The scan saw the tree (a wrong root would pass vacuously).
+  EXPECT_GT(files, 100);
+  for (const char* module : {"common", "device", "render", "record", "servo", "apps"})
+    EXPECT_TRUE(seen.count(module)) << module;
+}
+
+}  // namespace
+}  // namespace cariesim
