@@ -5,7 +5,9 @@
 // gap/normal/point of each pair. Timed per query, including moving the tool to the new pose.
 //
 // Ours: `PlacedTool::place` + `collide` of the explorer's sphere tree against the molar's sphere tree
-// (the tight tree: leaf spheres inscribed under the scanned surface), into a ContactSet of capacity 1024.
+// (the tight tree: leaf spheres inscribed under the scanned surface), into a ContactSet of capacity 1024,
+// then `contact_geometry` of every pair (collide reports ids and gaps; normal and point are computed
+// on demand, and are here so that both sides give the same answer).
 //
 // FCL 0.7 (Debian libfcl-dev), the same tooth as FCL's native representation of a scan: a
 // BVHModel<OBBRSS> of the triangle mesh (the best BV type FCL offers for mesh collision). The tool is
@@ -153,8 +155,10 @@ double normal_spread(const World& w, cariesim::PlacedTool& placed, const cariesi
   cariesim::collide(placed, w.objects, cariesim::kAllObjects, probe);
   double spread = 0.0;
   for (const cariesim::Contact& a : probe.view()) {
+    const Vec3 n_a = cariesim::contact_geometry(placed, w.objects, a).normal;
     for (const cariesim::Contact& b : probe.view()) {
-      spread = std::max(spread, std::acos(std::clamp(a.normal.dot(b.normal), -1.0, 1.0)));
+      const Vec3 n_b = cariesim::contact_geometry(placed, w.objects, b).normal;
+      spread = std::max(spread, std::acos(std::clamp(n_a.dot(n_b), -1.0, 1.0)));
     }
   }
   return spread;
@@ -262,7 +266,8 @@ double micros(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::micro>(b - a).count();
 }
 
-// Ours: place the tool at the next pose of the path, collect every pair within the margin.
+// Ours: place the tool at the next pose of the path, collect every pair within the margin with its
+// normal and point.
 void BM_Ours(benchmark::State& state) {
   const World& w = world();
   const auto& path = w.paths[static_cast<std::size_t>(state.range(0))];
@@ -279,6 +284,10 @@ void BM_Ours(benchmark::State& state) {
     placed.place(pose, kMargin);
     contacts.clear();
     cariesim::collide(placed, w.objects, cariesim::kAllObjects, contacts);
+    for (const cariesim::Contact& c : contacts.view()) {
+      const cariesim::ContactGeometry geo = cariesim::contact_geometry(placed, w.objects, c);
+      benchmark::DoNotOptimize(geo);
+    }
     const Clock::time_point t1 = Clock::now();
     benchmark::DoNotOptimize(contacts.size());
     total_contacts += static_cast<double>(contacts.size());

@@ -34,8 +34,6 @@ struct Query {
   const double* tool_radii;        // inflated
   const double* leaf_margin;       // per tool leaf
   const SphereNode* object_nodes;  // world
-  Vec3 origin;                     // tool-frame origin in the world
-  Vec3 fallback_normal;            // used when two centres coincide
   uint16_t object;
   uint32_t skip_flags;             // object leaves with any of these flags are not reported
   PlacedTool::LeafHits* hits;      // per tool leaf: pairs reported for this object (stamped)
@@ -57,19 +55,14 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
   const SphereNode& tn = q.tool_nodes[t];
   const SphereNode& on = q.object_nodes[o];
   if (on.flags & q.skip_flags) return;
-  const Vec3 co = on.center.cast<double>();
-  const Vec3 d = q.tool_centers[t] - co;
-  const double dist = d.norm();
-  const double gap = dist - static_cast<double>(tn.radius) - static_cast<double>(on.radius);
+  const Vec3 d = q.tool_centers[t] - on.center.cast<double>();
+  const double gap = d.norm() - static_cast<double>(tn.radius) - static_cast<double>(on.radius);
   if (!(gap < q.leaf_margin[tn.leaf])) return;
   PlacedTool::LeafHits& hits = q.hits[tn.leaf];
   if (hits.stamp != q.stamp) hits = {q.stamp, 0};
   if (hits.count >= q.max_per_leaf) return;
   ++hits.count;
   Contact c;
-  c.normal = dist > kCoincident ? Vec3(d / dist) : q.fallback_normal;
-  c.point = co + c.normal * static_cast<double>(on.radius);
-  c.lever = q.tool_centers[t] - q.origin;
   c.gap = gap;
   c.object_node = o;
   c.tool_leaf = static_cast<uint16_t>(tn.leaf);
@@ -215,7 +208,7 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
              ContactSet& out, uint32_t max_per_leaf) {
   const SphereTree& tree = tool.tree();
   if (tree.empty()) return;
-  // Tool data shared by every object; the fallback normal backs the tool out along its axis.
+  // Tool data shared by every object.
   Query q{};
   q.tool_nodes = tree.nodes.data();
   q.tool_centers = tool.centers().data();
@@ -223,10 +216,6 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   q.leaf_margin = tool.leaf_margins().data();
   q.hits = tool.leaf_hits().data();
   q.max_per_leaf = max_per_leaf;
-  q.origin = tool.pose().p;
-  q.fallback_normal = tool.pose().z_axis();
-  if (!q.fallback_normal.allFinite() || q.fallback_normal.squaredNorm() < 0.5)
-    q.fallback_normal = Vec3::UnitZ();
   // One traversal per masked, non-empty object (the mask addresses the first 64).
   const std::size_t n = std::min<std::size_t>(objects.size(), 64);
   for (std::size_t i = 0; i < n; ++i) {
@@ -237,6 +226,23 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
     q.stamp = tool.next_hit_stamp();
     traverse(q, out);
   }
+}
+
+ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const CollisionObject> objects,
+                                 const Contact& contact) {
+  // Both centres in the world; a direction is undefined below kCoincident, then the tool's axis.
+  const SphereNode& on = objects[contact.object].tree.nodes[contact.object_node];
+  const Vec3 c_t = tool.centers()[tool.tree().leaf_nodes[contact.tool_leaf]];
+  const Vec3 c_o = on.center.cast<double>();
+  const Vec3 d = c_t - c_o;
+  const double dist = d.norm();
+  Vec3 fallback = tool.pose().z_axis();
+  if (!fallback.allFinite() || fallback.squaredNorm() < 0.5) fallback = Vec3::UnitZ();
+  ContactGeometry out;
+  out.normal = dist > kCoincident ? Vec3(d / dist) : fallback;
+  out.point = c_o + out.normal * static_cast<double>(on.radius);
+  out.lever = c_t - tool.pose().p;
+  return out;
 }
 
 ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,

@@ -23,11 +23,12 @@ constexpr double kBeyondBottom = 1.5; // mm the haptic tip goes past where the l
 constexpr double kNearTip = 1.5;      // mm: tool leaves this close to the tip may touch the lesion's tooth
 constexpr double kGoodClearance = 0.3; // mm: a posture this clear of everything is a correct one
 
-// An orthonormal pair spanning the plane perpendicular to n.
+// An orthonormal pair spanning the plane perpendicular to n: the tangent basis about world z, turned
+// by half a turn (u = z × n / |z × n|, v = n × u), which is how the posture candidates are laid out.
 void plane_basis(const Vec3& n, Vec3& u, Vec3& v) {
-  const Vec3 helper = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-  u = helper.cross(n).normalized();
-  v = n.cross(u);
+  tangent_basis(n, u, v, 2);
+  u = -u;
+  v = -v;
 }
 
 }  // namespace

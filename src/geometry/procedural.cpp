@@ -10,10 +10,15 @@
 
 #include "cariesim/common/error.hpp"
 #include "geometry/implicit_mesher.hpp"
+#include "geometry/sdf.hpp"
 
 namespace cariesim {
 
 namespace {
+
+using sdf::rounded_rect;
+using sdf::smoothstep;
+using sdf::sq;
 
 // Most divisions along one edge of the cuboid: a few triangles per face, enough for display.
 constexpr int kCuboidDivisions = 4;
@@ -25,21 +30,6 @@ void require(bool ok, const char* who, const std::string& problem) {
 void require_range(const char* who, const char* name, double value, double lo, double hi) {
   require(std::isfinite(value) && value >= lo && value <= hi, who,
           fmt::format("{} = {} is outside [{}, {}]", name, value, lo, hi));
-}
-
-double sq(double x) { return x * x; }
-
-double smoothstep(double edge0, double edge1, double x) {
-  const double t = std::clamp((x - edge0) / (edge1 - edge0), 0.0, 1.0);
-  return t * t * (3.0 - 2.0 * t);
-}
-
-// Signed distance (mm) to a centred rectangle of half extents (hx, hy) with corner radius r.
-double rounded_rect(double x, double y, double hx, double hy, double r) {
-  r = std::min({r, hx, hy});
-  const double qx = std::abs(x) - (hx - r);
-  const double qy = std::abs(y) - (hy - r);
-  return std::sqrt(sq(std::max(qx, 0.0)) + sq(std::max(qy, 0.0))) + std::min(std::max(qx, qy), 0.0) - r;
 }
 
 }  // namespace

@@ -24,34 +24,19 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "geometry/implicit_mesher.hpp"
+#include "geometry/sdf.hpp"
 
 namespace cariesim {
 
 namespace {
 
+using sdf::rounded_rect;
+using sdf::smax;
+using sdf::smin;
+using sdf::smoothstep;
+using sdf::sq;
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// Polynomial smooth minimum / maximum of width k (mm): equal to min / max when |a - b| >= k.
-double smin(double a, double b, double k) {
-  const double h = std::max(k - std::abs(a - b), 0.0) / k;
-  return std::min(a, b) - h * h * k * 0.25;
-}
-double smax(double a, double b, double k) { return -smin(-a, -b, k); }
-
-double sq(double x) { return x * x; }
-
-double smoothstep(double edge0, double edge1, double x) {
-  const double t = std::clamp((x - edge0) / (edge1 - edge0), 0.0, 1.0);
-  return t * t * (3.0 - 2.0 * t);
-}
-
-// Signed distance (mm) to a centred rectangle of half extents (hx, hy) with corner radius r.
-double rounded_rect(double x, double y, double hx, double hy, double r) {
-  r = std::min({r, hx, hy});
-  const double qx = std::abs(x) - (hx - r);
-  const double qy = std::abs(y) - (hy - r);
-  return std::sqrt(sq(std::max(qx, 0.0)) + sq(std::max(qy, 0.0))) + std::min(std::max(qx, qy), 0.0) - r;
-}
 
 // Half extent (mm) of the crown at height z: from `cej` at z = 0 it bulges (sine) to `max` at z_max,
 // the height of contour, then narrows (parabola) to `top` at the crown height; below the CEJ the neck

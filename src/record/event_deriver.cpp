@@ -24,6 +24,8 @@ EventDeriver::EventDeriver(double soft_tissue_threshold, double period)
       {false, kFlagContactOverflow, "engine", "contact_overflow", {}},
       {false, kFlagQpRowsFull, "engine", "qp_rows_full", {}},
       {false, kFlagLagging, "engine", "lagging", {}},
+      {false, kFlagQpActiveSetFull, "engine", "qp_active_set_full", {}},
+      {false, kFlagQpIterationLimit, "engine", "qp_iteration_limit", {}},
   }};
 }
 

@@ -7,10 +7,15 @@
 // force falls to the dynamic cone mu_d·f_n, and the build-up starts again. This stick-slip cycle is
 // the saw-tooth of the paper's force signals. Anisotropic friction (paper §2.1) uses an elliptic cone
 // with other coefficients along the material's direction than across it.
+//
+// The stages here: attach_anchors (before each solve's rows), build_friction_rows (the row builder,
+// owner of the friction rows' key space), decide_slips and apply_slips (between the final solve of a
+// sub-step and its re-solve), create_anchors (at the end of a sliding cycle).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
-#include "render/internal.hpp"
+#include "render/stages.hpp"
 
 namespace cariesim::detail {
 
@@ -19,16 +24,9 @@ namespace {
 constexpr double kMinNormalForce = 1e-6;     // N: below this a contact carries no friction
 constexpr double kRigidSlipStiffness = 1e3;  // N/mm: a rigid row's share of the slip stiffness
 
-// An orthonormal tangent pair for a unit normal.
-void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
-  const Vec3 helper = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
-  t1 = n.cross(helper).normalized();
-  t2 = n.cross(t1);
-}
-
-int find_region(const StateImpl& s, const FrictionAnchor& a) {
-  for (int r = 0; r < s.region_count; ++r) {
-    const Region& reg = s.regions[r];
+int find_region(const RegionSet& regions, const FrictionAnchor& a) {
+  for (int r = 0; r < regions.count; ++r) {
+    const Region& reg = regions.regions[r];
     if (reg.object == a.object && (reg.tool_point_local - a.point_local).norm() < kRegionRadius) return r;
   }
   return -1;
@@ -72,57 +70,68 @@ double cone_measure(double f_u, double f_v, double mu_u, double mu_v) {
 
 }  // namespace
 
-void add_friction_rows(StateImpl& s, const Pose& g, uint32_t& flags) {
-  for (int k = 0; k < kMaxAnchors; ++k) {
-    FrictionAnchor& a = s.anchors[k];
-    a.rows[0] = a.rows[1] = -1;
+void attach_anchors(const RegionSet& regions, const Pose& g0, Anchors& anchors) {
+  for (FrictionAnchor& a : anchors) {
     if (!a.active) continue;
     // The anchor's region is gone: the tool left the surface.
-    const int r = find_region(s, a);
+    const int r = find_region(regions, a);
     if (r < 0) {
       a.active = false;
       continue;
     }
     a.region = static_cast<int16_t>(r);
-    const Vec3 x = g.transform(a.point_local);
-    const Vec3 lever = x - g.p;
-    const Vec3& n = s.regions[r].normal;
     // The anchor lies in the contact's tangent plane: drop the offset along the normal (a tool
     // sinking into compliant tissue leaves its anchor above it), which a later, tilted normal would
     // otherwise turn into a sideways pull.
+    const Vec3 x = g0.transform(a.point_local);
+    const Vec3& n = regions.regions[r].normal;
     a.anchor -= n * n.dot(a.anchor - x);
-    tangent_basis(n, a.tangents[0], a.tangents[1]);
+  }
+}
+
+void build_friction_rows(const Anchors& anchors, const RegionSet& regions, const Pose& g0, RowSet& rows) {
+  for (int k = 0; k < kMaxAnchors; ++k) {
+    const FrictionAnchor& a = anchors[k];
+    if (!a.active) continue;
+    // Two tangent rows holding the tool point x at the anchor.
+    const Vec3 x = g0.transform(a.point_local);
+    const Vec3 lever = x - g0.p;
+    const Vec3& n = regions.regions[a.region].normal;
+    Vec3 t[2];
+    tangent_basis(n, t[0], t[1]);
     for (int j = 0; j < 2; ++j) {
       QpRow row;
-      row.a.head<3>() = a.tangents[j];
-      row.a.tail<3>() = lever.cross(a.tangents[j]);
-      row.b = a.tangents[j].dot(a.anchor - x);
+      row.a.head<3>() = t[j];
+      row.a.tail<3>() = lever.cross(t[j]);
+      row.b = t[j].dot(a.anchor - x);
       row.equality = true;
-      row.key = 0xF1C0000000000000ull | static_cast<uint64_t>(2 * k + j);
-      if (!s.problem.add(row)) {
-        flags |= kFlagQpRowsFull;
-        return;
-      }
-      a.rows[j] = static_cast<int8_t>(s.problem.row_count - 1);
-      s.meta[s.problem.row_count - 1] =
-          RowMeta{RowKind::Friction, static_cast<int16_t>(r), static_cast<int16_t>(k), -1};
+      row.key = friction_key(k, j);
+      if (!rows.add(row, RowMeta{RowKind::Friction, a.region, static_cast<int16_t>(k), -1})) return;
+      rows.anchor_rows[k][j] = static_cast<int8_t>(rows.problem.row_count - 1);
     }
   }
 }
 
-int slip_anchors(const Params& p, StateImpl& s, const Pose& g, const Mat6& G, int& slipped) {
-  int changed = 0;
-  for (FrictionAnchor& a : s.anchors) {
-    if (!a.active || a.rows[0] < 0 || a.rows[1] < 0) continue;
-    const Region& reg = s.regions[a.region];
-    const double f_n = reg.normal_force;
+void decide_slips(const Params& p, const Anchors& anchors, const RegionSet& regions, const RowSet& rows,
+                  const Solution& solution, const Pose& g0, const Mat6& G, SlipPlan& plan) {
+  plan.changed = 0;
+  plan.slipped = 0;
+  for (int k = 0; k < kMaxAnchors; ++k) {
+    const FrictionAnchor& a = anchors[k];
+    plan.action[k] = SlipPlan::Action::Keep;
+    const int row0 = rows.anchor_rows[k][0], row1 = rows.anchor_rows[k][1];
+    if (!a.active || row0 < 0 || row1 < 0) continue;
+    const int r = rows.meta[row0].region;
+    const Region& reg = regions.regions[r];
+    const double f_n = solution.region_force[r];
     // No normal load: the contact is separating and cannot hold.
     if (f_n <= kMinNormalForce) {
-      a.active = false;
-      ++changed;
+      plan.action[k] = SlipPlan::Action::Release;
+      ++plan.changed;
       continue;
     }
-    const Vec3 f_t = s.result.lambda[a.rows[0]] * a.tangents[0] + s.result.lambda[a.rows[1]] * a.tangents[1];
+    const Vec3 t0 = rows.problem.rows[row0].a.head<3>(), t1 = rows.problem.rows[row1].a.head<3>();
+    const Vec3 f_t = solution.qp.lambda[row0] * t0 + solution.qp.lambda[row1] * t1;
     const Cone cone = cone_of(p.materials[reg.material], reg.normal);
     const double f_u = f_t.dot(cone.u);
     const double f_v = f_t.dot(cone.v);
@@ -139,32 +148,41 @@ int slip_anchors(const Params& p, StateImpl& s, const Pose& g, const Mat6& G, in
     const double scale = std::isfinite(q_d) && q_d > 0.0 ? std::min(1.0, f_n / q_d) : 0.0;
     const double f_t_norm = f_t.norm();
     const Vec3 dir = f_t / f_t_norm;
-    const Vec3 lever = g.q * a.point_local;
+    const Vec3 lever = g0.q * a.point_local;
     const double k_t = G(0, 0), k_r = G(3, 3);
     double k_eff = 1.0 / (1.0 / k_t + lever.cross(dir).squaredNorm() / k_r);
-    for (int row = 0; row < s.problem.row_count; ++row) {
-      if (s.meta[row].kind != RowKind::Contact || s.result.lambda[row] <= 0.0) continue;
-      const QpRow& qr = s.problem.rows[row];
+    for (int row = 0; row < rows.problem.row_count; ++row) {
+      if (rows.meta[row].kind != RowKind::Contact || solution.qp.lambda[row] <= 0.0) continue;
+      const QpRow& qr = rows.problem.rows[row];
       const double along = qr.a.head<3>().dot(dir);
       k_eff += along * along * (qr.compliance > 0.0 ? 1.0 / qr.compliance : kRigidSlipStiffness);
     }
-    a.anchor -= (1.0 - scale) * f_t / k_eff;
-    ++changed;
-    ++slipped;
+    plan.action[k] = SlipPlan::Action::Slip;
+    plan.anchor[k] = a.anchor - (1.0 - scale) * f_t / k_eff;
+    ++plan.changed;
+    ++plan.slipped;
   }
-  return changed;
 }
 
-void create_anchors(const Params& p, StateImpl& s, const Pose& g) {
-  for (int r = 0; r < s.region_count; ++r) {
-    const Region& reg = s.regions[r];
-    if (!p.materials[reg.material].frictional() || reg.normal_force <= kMinNormalForce) continue;
+void apply_slips(const SlipPlan& plan, Anchors& anchors) {
+  for (int k = 0; k < kMaxAnchors; ++k) {
+    if (plan.action[k] == SlipPlan::Action::Release) anchors[k].active = false;
+    if (plan.action[k] == SlipPlan::Action::Slip) anchors[k].anchor = plan.anchor[k];
+  }
+}
+
+void create_anchors(const Params& p, const RegionSet& regions, const Solution& solution, const Pose& g,
+                    Anchors& anchors) {
+  for (int r = 0; r < regions.count; ++r) {
+    const Region& reg = regions.regions[r];
+    if (!p.materials[reg.material].frictional() || solution.region_force[r] <= kMinNormalForce) continue;
+    // One anchor per region: skip a region that already has one.
     bool anchored = false;
-    for (const FrictionAnchor& a : s.anchors)
+    for (const FrictionAnchor& a : anchors)
       anchored = anchored || (a.active && a.object == reg.object &&
                               (reg.tool_point_local - a.point_local).norm() < kRegionRadius);
     if (anchored) continue;
-    for (FrictionAnchor& a : s.anchors) {
+    for (FrictionAnchor& a : anchors) {
       if (a.active) continue;
       a.active = true;
       a.object = reg.object;
@@ -176,8 +194,8 @@ void create_anchors(const Params& p, StateImpl& s, const Pose& g) {
   }
 }
 
-void release_anchors(StateImpl& s) {
-  for (FrictionAnchor& a : s.anchors) a.active = false;
+void release_anchors(Anchors& anchors) {
+  for (FrictionAnchor& a : anchors) a.active = false;
 }
 
 }  // namespace cariesim::detail

@@ -14,10 +14,11 @@
 // criterion stops holding within the same cycle. Extraction mirrors it (eqs. 8-9): the probe stays
 // until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state returns to
 // sliding and the force drops.
+// The tunnel row builder owns the tunnel rows' key space (tunnel_key).
 #include <algorithm>
 #include <cmath>
 
-#include "render/internal.hpp"
+#include "render/state_impl.hpp"
 
 namespace cariesim::detail {
 
@@ -50,66 +51,51 @@ double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
   return d > 0.0 ? lo : t;
 }
 
-void tangents_of(const Vec3& n, Vec3& t1, Vec3& t2) {
-  const Vec3 helper = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
-  t1 = n.cross(helper).normalized();
-  t2 = n.cross(t1);
-}
-
-// The tunnel's rows for one solve.
-struct TunnelRows final : ExtraRows {
-  const Tunnel* tunnel = nullptr;
-  double lower = 0.0;  // mm, shallowest tip travel allowed this cycle
-  double upper = 0.0;  // mm, deepest tip travel allowed this cycle (the bottom sphere)
-
-  void add(const Pose& g0, QpProblem& problem, std::array<RowMeta, kQpMaxRows>& meta) const override {
-    const Tunnel& t = *tunnel;
-    const Vec3 axis_point = t.entry + t.n * (g0.p - t.entry).dot(t.n);
-    const double depth = (g0.p - t.entry).dot(t.n);
-    Vec3 side[2];
-    tangents_of(t.n, side[0], side[1]);
-    const auto push = [&](const QpRow& row, RowKind kind) {
-      if (problem.add(row)) meta[problem.row_count - 1] = RowMeta{kind, -1, -1, -1};
-    };
-    // The four side spheres: the tip (tool-frame origin) stays on the axis.
-    for (int j = 0; j < 2; ++j) {
-      QpRow row;
-      row.a.head<3>() = side[j];
-      row.b = side[j].dot(axis_point - g0.p);
-      row.equality = true;
-      row.key = 0x7A00000000000000ull | static_cast<uint64_t>(j);
-      push(row, RowKind::TunnelLateral);
-    }
-    // The orientation held by the tunnel (eq. 7's constraint).
-    const Vec3 back = rotation_vector(t.q_lock * g0.q.conjugate());
-    for (int j = 0; j < 3; ++j) {
-      QpRow row;
-      row.a[3 + j] = 1.0;
-      row.b = back[j];
-      row.equality = true;
-      row.key = 0x7A00000000000010ull | static_cast<uint64_t>(j);
-      push(row, RowKind::TunnelRotation);
-    }
-    // The bottom sphere: depth + n·dp <= upper.
-    QpRow bottom;
-    bottom.a.head<3>() = -t.n;
-    bottom.b = depth - upper;
-    bottom.key = 0x7A00000000000020ull;
-    push(bottom, RowKind::TunnelBottom);
-    // The tissue's hold: depth + n·dp >= lower (eq. 9: p_s(k) = p_s(k-1) until |F_e| > F_e*).
-    QpRow hold;
-    hold.a.head<3>() = t.n;
-    hold.b = lower - depth;
-    hold.key = 0x7A00000000000021ull;
-    push(hold, RowKind::TunnelHold);
-  }
-};
-
 }  // namespace
 
+void build_tunnel_rows(const TunnelLimits& limits, const Pose& g0, RowSet& rows) {
+  const Tunnel& t = *limits.tunnel;
+  const Vec3 axis_point = t.entry + t.n * (g0.p - t.entry).dot(t.n);
+  const double depth = (g0.p - t.entry).dot(t.n);
+  Vec3 side[2];
+  tangent_basis(t.n, side[0], side[1]);
+  const auto add = [&](QpRow row, RowKind kind, TunnelRow which) {
+    row.key = tunnel_key(which);
+    rows.add(row, RowMeta{kind, -1, -1, -1});
+  };
+  // The four side spheres: the tip (tool-frame origin) stays on the axis.
+  for (int j = 0; j < 2; ++j) {
+    QpRow row;
+    row.a.head<3>() = side[j];
+    row.b = side[j].dot(axis_point - g0.p);
+    row.equality = true;
+    add(row, RowKind::TunnelLateral, j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
+  }
+  // The orientation held by the tunnel (eq. 7's constraint).
+  const Vec3 back = rotation_vector(t.q_lock * g0.q.conjugate());
+  constexpr TunnelRow kRotation[3] = {TunnelRow::Rotation0, TunnelRow::Rotation1, TunnelRow::Rotation2};
+  for (int j = 0; j < 3; ++j) {
+    QpRow row;
+    row.a[3 + j] = 1.0;
+    row.b = back[j];
+    row.equality = true;
+    add(row, RowKind::TunnelRotation, kRotation[j]);
+  }
+  // The bottom sphere: depth + n·dp <= upper.
+  QpRow bottom;
+  bottom.a.head<3>() = -t.n;
+  bottom.b = depth - limits.upper;
+  add(bottom, RowKind::TunnelBottom, TunnelRow::Bottom);
+  // The tissue's hold: depth + n·dp >= lower (eq. 9: p_s(k) = p_s(k-1) until |F_e| > F_e*).
+  QpRow hold;
+  hold.a.head<3>() = t.n;
+  hold.b = limits.lower - depth;
+  add(hold, RowKind::TunnelHold, TunnelRow::Hold);
+}
+
 bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const Pose& haptic) {
-  if (s.tip_lesion < 0) return false;
-  const Material& mat = p.materials[s.tip_material];
+  if (s.tip.lesion < 0) return false;
+  const Material& mat = p.materials[s.tip.material];
   // Eqs. 3-4: F_c = k_e (p_h^t - p_g^{t-1}); F_p = -(F_c·n)n along the tip axis n (tool -z).
   const Vec3 n = -(s.graphic.q * Vec3::UnitZ());
   const double push = (haptic.p - s.graphic.p).dot(n);
@@ -117,31 +103,29 @@ bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const 
   if (!(f_p > mat.f_p_star)) return false;
 
   // Open the tunnel at the tip's current place.
-  const LesionModel& lesion = m.lesions[s.tip_lesion];
+  const LesionModel& lesion = m.lesions[s.tip.lesion];
   Tunnel& t = s.tunnel;
   t.entry = s.graphic.p;
   t.n = n;
   t.q_lock = s.graphic.q;
   t.depth = 0.0;
-  t.depth0 = s.tip_sink;
-  t.lesion = s.tip_lesion;
+  t.depth0 = s.tip.sink;
+  t.lesion = s.tip.lesion;
   t.object = lesion.object;
-  t.material = s.tip_material;
+  t.material = s.tip.material;
   // The lesion's bottom is a hard stop: the tip's apex may travel until it leaves the lesion volume.
   t.max_depth = std::max(0.0, lesion_exit(lesion.shape, t.entry, n) - m.tool.tip_radius);
-  release_anchors(s);
+  release_anchors(s.anchors);
   s.interaction = InteractionState::Inserting;
   return true;
 }
 
-void penetration_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, double dt,
-                      StepOutput& out) {
-  Tunnel& t = s.tunnel;
+TunnelLimits tunnel_limits(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, double dt) {
+  const Tunnel& t = s.tunnel;
   const Material& mat = p.materials[t.material];
-  const Pose g_prev = s.graphic;
 
   // Eqs. 3-4 and 8: the force along the axis, pushing in (F_p) or pulling out (F_e).
-  const double along = (haptic.p - g_prev.p).dot(t.n);
+  const double along = (haptic.p - s.graphic.p).dot(t.n);
   const double f_p = mat.k_e * std::max(along, 0.0);
   const double f_e = mat.k_e * std::max(-along, 0.0);
   const double scale = dt / m.settings.reference_dt;  // eq. 5 is per 1 ms cycle
@@ -153,45 +137,51 @@ void penetration_step(const Model& m, const Params& p, StateImpl& s, const Pose&
   else if (s.interaction == InteractionState::Extracting && f_p > mat.f_p_star)
     s.interaction = InteractionState::Inserting;
 
-  double lower = t.depth, upper = t.depth;
+  TunnelLimits out{&t, t.depth, t.depth};
   if (s.interaction == InteractionState::Inserting && f_p > mat.f_p_star) {
     // Eq. 5, rate independent; one cycle never overshoots |F_p| = F_p*.
     double delta = f_p / mat.k_c.at(apex_depth) * scale;
     delta = std::min(delta, along - mat.f_p_star / mat.k_e);
-    upper = std::min(t.depth + std::max(delta, 0.0), std::max(t.depth, t.max_depth));
+    out.upper = std::min(t.depth + std::max(delta, 0.0), std::max(t.depth, t.max_depth));
   } else if (s.interaction == InteractionState::Extracting && f_e > mat.f_e_star) {
     // Eqs. 8-9: beyond F_e* the probe slides out, the tunnel shortening behind it.
     double delta = f_e / mat.k_c.at(apex_depth) * scale;
     delta = std::min(delta, -along - mat.f_e_star / mat.k_e);
-    lower = std::max(t.depth - std::max(delta, 0.0), 0.0);
+    out.lower = std::max(t.depth - std::max(delta, 0.0), 0.0);
   }
+  return out;
+}
 
-  // One optimisation: tunnel rows + additional contacts with every other object (Fig. 7).
-  TunnelRows rows;
-  rows.tunnel = &t;
-  rows.lower = lower;
-  rows.upper = upper;
+void penetration_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, double dt,
+                      StepTrace& trace) {
+  Tunnel& t = s.tunnel;
+  const Material& mat = p.materials[t.material];
+  const Pose g_prev = s.graphic;
+  const TunnelLimits limits = tunnel_limits(m, p, s, haptic, dt);
+
+  // One optimisation: tunnel rows + additional contacts with every other object (Fig. 7), pulled by
+  // the tunnel's stiffness (eq. 6's k_p: the device's maximum stiffness; eq. 7's k_θ).
   SubstepRequest req;
   req.target = config_difference(haptic, g_prev);
   req.G.setZero();
   req.G.diagonal() << p.limits.max_stiffness, p.limits.max_stiffness, p.limits.max_stiffness, mat.k_theta,
       mat.k_theta, mat.k_theta;
-  req.trans_bound = std::max(upper - t.depth, t.depth - lower) + 1e-6;
+  req.trans_bound = std::max(limits.upper - t.depth, t.depth - limits.lower) + 1e-6;
   req.rot_bound = 1e-6;
-  req.mask = s.all_mask & ~(ObjectMask{1} << t.object);
+  req.mask = s.constants.all_mask & ~(ObjectMask{1} << t.object);
   req.friction = false;
   req.hold_only = true;
-  req.extra = &rows;
+  req.tunnel = &limits;
   bool reached = false;
-  s.graphic = solve_substep(m, p, s, g_prev, req, out, reached);
+  s.graphic = solve_substep(m, p, s, g_prev, req, trace, reached);
   t.depth = std::max(0.0, (s.graphic.p - t.entry).dot(t.n));
-  out.substeps = 1;
+  trace.substeps = 1;
 
   // Full extraction: the tunnel disappears and the state returns to sliding.
   if (s.interaction == InteractionState::Extracting && t.depth <= kExitDepth) {
     s.interaction = InteractionState::Sliding;
     t.lesion = -1;
-    s.tip_lesion = -1;
+    s.tip.lesion = -1;
   }
 }
 
@@ -208,7 +198,7 @@ void tunnel_spheres(const Model& m, const StateImpl& s, TunnelSpheres& out) {
   out.centers[0] = tip + t.n * (r_tip + kBottomRadius);
   out.radii[0] = kBottomRadius;
   Vec3 side[2];
-  tangents_of(t.n, side[0], side[1]);
+  tangent_basis(t.n, side[0], side[1]);
   for (int j = 0; j < 4; ++j) {
     const Vec3 dir = (j % 2 == 0 ? 1.0 : -1.0) * side[j / 2];
     out.centers[1 + j] = tip + dir * (r_tip + kBottomRadius);

@@ -10,7 +10,6 @@ namespace cariesim {
 
 namespace {
 
-constexpr int kMaxIterations = 8 * kQpMaxRows;  // dual steps before IterationLimit
 // A row counts as violated when its scaled violation exceeds this fraction of the magnitudes that
 // entered its evaluation (|b|, |a|^T |x_t| and |y|): the roundoff level, with margin.
 constexpr double kFeasTol = 1e-10;
@@ -44,6 +43,7 @@ struct Work {
   int entering = -1;             // row in transit when the loop stopped early
   double entering_lambda = 0.0;  // its multiplier, N
   int iterations = 0;
+  int max_iterations = kQpMaxIterations;  // dual steps before IterationLimit
   int seeded = 0;
 };
 
@@ -265,7 +265,7 @@ Enter enter_row(Work& w, int p) {
   const double sigma = (row.equality && residual(w, p, 0.0) > 0.0) ? -1.0 : 1.0;
   double t_p = 0.0;  // oriented multiplier of p accumulated by partial steps
   for (;;) {
-    if (w.iterations >= kMaxIterations) {
+    if (w.iterations >= w.max_iterations) {
       w.entering = p;
       w.entering_lambda = sigma * t_p;
       return Enter::Limit;
@@ -366,6 +366,8 @@ bool QpProblem::add(const QpRow& row) {
   return true;
 }
 
+QpSolver::QpSolver(int max_iterations) : max_iterations_(std::max(max_iterations, 1)) {}
+
 void QpSolver::reset() { warm_count_ = 0; }
 
 QpStatus QpSolver::solve(const QpProblem& problem, QpResult& result, bool warm) {
@@ -379,6 +381,7 @@ QpStatus QpSolver::solve(const QpProblem& problem, QpResult& result, bool warm) 
   Work w;
   w.pb = &problem;
   w.m = problem.row_count;
+  w.max_iterations = max_iterations_;
   bool good = factor_weight(problem, w.l_inv, w.diagonal_g);
 
   // Stage 2: rows checked (bounded, compliance >= 0) and moved into the metric of G:
@@ -467,7 +470,7 @@ QpStatus QpSolver::solve(const QpProblem& problem, QpResult& result, bool warm) 
     if (e == Enter::Skipped) {
       // Only reachable through roundoff; counted so the loop always ends.
       ++w.iterations;
-      if (w.iterations >= kMaxIterations) status = QpStatus::IterationLimit;
+      if (w.iterations >= w.max_iterations) status = QpStatus::IterationLimit;
       continue;
     }
     status = status_of(e);

@@ -49,11 +49,16 @@ Pose random_pose(std::mt19937& rng, double spread) {
   return pose;
 }
 
-// Every (tool leaf, object leaf) pair of the masked objects with gap below the tool leaf's margin.
-std::map<PairKey, Contact> brute_force(const SphereTree& tool, const Pose& pose,
-                                       std::span<const double> margins,
-                                       std::span<const CollisionObject> objects, ObjectMask mask) {
-  std::map<PairKey, Contact> pairs;
+// Every (tool leaf, object leaf) pair of the masked objects with gap below the tool leaf's margin,
+// with its geometry.
+struct BrutePair {
+  Contact contact;
+  ContactGeometry geometry;
+};
+std::map<PairKey, BrutePair> brute_force(const SphereTree& tool, const Pose& pose,
+                                         std::span<const double> margins,
+                                         std::span<const CollisionObject> objects, ObjectMask mask) {
+  std::map<PairKey, BrutePair> pairs;
   for (std::size_t oi = 0; oi < objects.size(); ++oi) {
     if (((mask >> oi) & 1u) == 0) continue;
     const SphereTree& obj = objects[oi].tree;
@@ -66,13 +71,13 @@ std::map<PairKey, Contact> brute_force(const SphereTree& tool, const Pose& pose,
         const Vec3 co = on.center.cast<double>();
         const double gap = (ct - co).norm() - tn.radius - on.radius;
         if (!(gap < margins[tl])) continue;
-        Contact c;
-        c.normal = (ct - co).normalized();
-        c.point = co + c.normal * static_cast<double>(on.radius);
-        c.lever = ct - pose.p;
-        c.gap = gap;
-        c.material = on.material;
-        pairs[{static_cast<uint16_t>(tl), static_cast<uint16_t>(oi), node}] = c;
+        BrutePair b;
+        b.contact.gap = gap;
+        b.contact.material = on.material;
+        b.geometry.normal = (ct - co).normalized();
+        b.geometry.point = co + b.geometry.normal * static_cast<double>(on.radius);
+        b.geometry.lever = ct - pose.p;
+        pairs[{static_cast<uint16_t>(tl), static_cast<uint16_t>(oi), node}] = b;
       }
     }
   }
@@ -88,7 +93,8 @@ std::map<PairKey, Contact> as_map(const ContactSet& set) {
   return pairs;
 }
 
-// Random trees and poses: the traversal finds exactly the brute-force pair set, with the same data.
+// Random trees and poses: the traversal finds exactly the brute-force pair set, with the same data;
+// contact_geometry gives each pair's normal, point and lever.
 TEST(Collide, MatchesBruteForceOnRandomTrees) {
   std::mt19937 rng(42);
   const std::vector<LeafSphere> tool_leaves = random_leaves(120, rng, Vec3f(0, 0, 2), 2.5f, 0.03f, 0.4f);
@@ -116,18 +122,19 @@ TEST(Collide, MatchesBruteForceOnRandomTrees) {
     collide(placed, objects, mask, set);
     ASSERT_FALSE(set.overflow());
     const std::map<PairKey, Contact> got = as_map(set);
-    const std::map<PairKey, Contact> want = brute_force(tool, pose, margins, objects, mask);
+    const std::map<PairKey, BrutePair> want = brute_force(tool, pose, margins, objects, mask);
     ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
     total += got.size();
     for (const auto& [key, w] : want) {
       const auto it = got.find(key);
       ASSERT_NE(it, got.end()) << "missing pair in trial " << trial;
       const Contact& g = it->second;
-      EXPECT_NEAR(g.gap, w.gap, 1e-9);
-      EXPECT_NEAR((g.normal - w.normal).norm(), 0.0, 1e-9);
-      EXPECT_NEAR((g.point - w.point).norm(), 0.0, 1e-9);
-      EXPECT_NEAR((g.lever - w.lever).norm(), 0.0, 1e-9);
-      EXPECT_EQ(g.material, w.material);
+      const ContactGeometry geo = contact_geometry(placed, objects, g);
+      EXPECT_NEAR(g.gap, w.contact.gap, 1e-9);
+      EXPECT_NEAR((geo.normal - w.geometry.normal).norm(), 0.0, 1e-9);
+      EXPECT_NEAR((geo.point - w.geometry.point).norm(), 0.0, 1e-9);
+      EXPECT_NEAR((geo.lever - w.geometry.lever).norm(), 0.0, 1e-9);
+      EXPECT_EQ(g.material, w.contact.material);
     }
   }
   EXPECT_GT(total, 1000u) << "the random scenes should produce many pairs";
@@ -164,9 +171,10 @@ TEST(Collide, SphereAboveAPlaneOfSpheres) {
     ASSERT_EQ(set.size(), 1u) << "height " << height;
     const Contact& c = set[0];
     EXPECT_NEAR(c.gap, height - kTip - kR, 1e-6);
-    EXPECT_NEAR((c.normal - Vec3::UnitZ()).norm(), 0.0, 1e-9);
-    EXPECT_NEAR((c.point - Vec3(1.5, -2.0, kR)).norm(), 0.0, 1e-6);
-    EXPECT_NEAR(c.lever.norm(), 0.0, 1e-12);
+    const ContactGeometry geo = contact_geometry(placed, objects, c);
+    EXPECT_NEAR((geo.normal - Vec3::UnitZ()).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((geo.point - Vec3(1.5, -2.0, kR)).norm(), 0.0, 1e-6);
+    EXPECT_NEAR(geo.lever.norm(), 0.0, 1e-12);
     EXPECT_EQ(c.material, 3);
     EXPECT_EQ(c.tool_leaf, 0);
     const SphereNode& hit = objects[0].tree.nodes[c.object_node];
@@ -328,10 +336,11 @@ TEST(Collide, CoincidentCentresAndZeroRadiiStayFinite) {
   collide(placed, objects, kAllObjects, set);
   ASSERT_EQ(set.size(), 3u) << "point-point at distance 0 has gap 0, not below a zero margin";
   for (const Contact& c : set.view()) {
-    EXPECT_TRUE(c.normal.allFinite());
-    EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12);
-    EXPECT_NEAR((c.normal - pose.z_axis()).norm(), 0.0, 1e-12);
-    EXPECT_TRUE(c.point.allFinite());
+    const ContactGeometry geo = contact_geometry(placed, objects, c);
+    EXPECT_TRUE(geo.normal.allFinite());
+    EXPECT_NEAR(geo.normal.norm(), 1.0, 1e-12);
+    EXPECT_NEAR((geo.normal - pose.z_axis()).norm(), 0.0, 1e-12);
+    EXPECT_TRUE(geo.point.allFinite());
     EXPECT_TRUE(std::isfinite(c.gap));
     EXPECT_LE(c.gap, 0.0);
   }

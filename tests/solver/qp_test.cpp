@@ -929,5 +929,27 @@ TEST(QpCapacity, TooManyCompliantRowsReportFull) {
   EXPECT_EQ(r.active, kQpMaxActive);
 }
 
+TEST(QpCapacity, IterationLimitStopsTheDualLoop) {
+  // Two independent violated rows need two dual steps; a solver allowed one stops after it.
+  QpProblem pb;
+  QpRow x_row, y_row;
+  x_row.a << 1, 0, 0, 0, 0, 0;
+  x_row.b = 1.0;
+  y_row.a << 0, 1, 0, 0, 0, 0;
+  y_row.b = 2.0;
+  pb.add(x_row);
+  pb.add(y_row);
+  QpSolver limited(1);
+  QpResult r;
+  EXPECT_EQ(limited.solve(pb, r), QpStatus::IterationLimit);
+  EXPECT_TRUE(r.x.allFinite());
+  EXPECT_EQ(r.iterations, 1);
+  QpSolver solver;
+  EXPECT_EQ(solver.solve(pb, r), QpStatus::Optimal);
+  EXPECT_NEAR(r.x[0], 1.0, 1e-12);
+  EXPECT_NEAR(r.x[1], 2.0, 1e-12);
+  EXPECT_EQ(r.iterations, 2);
+}
+
 }  // namespace
 }  // namespace cariesim

@@ -32,11 +32,10 @@ struct CollisionObject {
   bool surface_only = false;
 };
 
-/// One sphere pair closer than the query margin.
+/// One sphere pair closer than the query margin, by ids and sphere-against-sphere gap. What a pair
+/// means for a constraint (its normal, lever, or a depth measured against a surface patch) is the
+/// caller's to compute, at the configuration it needs (the haptic step: render's measure_pair).
 struct Contact {
-  Vec3 normal;               ///< unit, from the object sphere's centre toward the tool sphere's centre
-  Vec3 point;                ///< mm, world, on the object sphere's surface along `normal`
-  Vec3 lever;                ///< mm, world, tool sphere centre minus tool-frame origin
   double gap = 0.0;          ///< mm, |c_t - c_o| - r_t - r_o (negative = overlap)
   uint32_t object_node = 0;  ///< node index in the object's tree
   uint16_t tool_leaf = 0;    ///< leaf index in the tool's tree (0 = the tip)
@@ -112,11 +111,22 @@ using ObjectMask = uint64_t;
 inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 
 /// Appends every (tool leaf, object leaf) pair whose gap is below the tool leaf's margin.
-/// `gap` and `normal` are computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
+/// `gap` is computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
 /// `surface_only` objects are skipped; each tool leaf reports at most `max_per_leaf` pairs per object
 /// (the first found, depth first; not necessarily the nearest).
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
              ContactSet& out, uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max());
+
+/// Sphere-against-sphere geometry of a pair, computed on demand (collide() reports ids and gaps only).
+struct ContactGeometry {
+  Vec3 normal;  ///< unit, from the object sphere's centre toward the tool sphere's centre
+  Vec3 point;   ///< mm, world, on the object sphere's surface along `normal`
+  Vec3 lever;   ///< mm, world, tool sphere centre minus tool-frame origin
+};
+/// The geometry of `contact` with the tool where it is placed; when the two centres coincide the
+/// normal is the tool's +z axis (backing the tool out along its axis).
+ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const CollisionObject> objects,
+                                 const Contact& contact);
 
 /// Smallest gap between any tool leaf and any leaf of the masked objects, with the pair that gives it
 /// (no allocation). Returns +infinity when nothing is within `search_mm`.

@@ -41,6 +41,15 @@ inline Vec3 rotation_vector(const Quat& q_in) {
   return q.vec() * (angle / s);
 }
 
+/// An orthonormal tangent pair of a unit normal n, with (t1, t2, n) right-handed: t1 = n × h / |n × h|
+/// and t2 = n × t1, where h is the world axis `axis` (0 x, 1 y, 2 z), or the next one when n lies
+/// within about 25° of it.
+inline void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2, int axis = 0) {
+  const Vec3 helper = std::abs(n[axis]) < 0.9 ? Vec3::Unit(axis) : Vec3::Unit((axis + 1) % 3);
+  t1 = n.cross(helper).normalized();
+  t2 = n.cross(t1);
+}
+
 /// Unit quaternion from a rotation vector (axis * angle, rad).
 inline Quat quat_from_rotation_vector(const Vec3& v) {
   const double angle = v.norm();

@@ -1,6 +1,7 @@
 #pragma once
-/// The haptic step: `step(model, state, input) -> output` (DESIGN.md §4). A pure function of its
-/// inputs, so runs are deterministic and replayable. It allocates nothing, takes no lock and does no
+/// The haptic step: `step(model, params, state, input) -> output` (DESIGN.md §4; its stages are
+/// described in src/render/stages.hpp and docs/step.md). A pure function of its inputs, so runs are
+/// deterministic and replayable. It allocates nothing, takes no lock and does no
 /// I/O. Bad input (non-finite pose, a jump of centimetres, a wedged tool, contact overflow) yields a
 /// finite, bounded output with flags set, never a crash, NaN, or a tool inside rigid tissue.
 
@@ -18,16 +19,18 @@ const char* state_name(InteractionState s);
 
 /// Output flags.
 enum StepFlag : uint32_t {
-  kFlagNonFiniteInput = 1u << 0,  ///< the haptic pose was NaN/inf; the last good one was used
-  kFlagJumpLimited = 1u << 1,     ///< the haptic tool moved further than max_jump in one step
-  kFlagInfeasible = 1u << 2,      ///< the constraints contradicted each other; the tool held still
-  kFlagContactOverflow = 1u << 3, ///< more sphere pairs than the contact capacity
-  kFlagForceClamped = 1u << 4,    ///< force limited to the device maximum
-  kFlagTorqueClamped = 1u << 5,   ///< torque limited to the device maximum
-  kFlagLagging = 1u << 6,         ///< sub-step budget exhausted; the graphic tool is catching up
-  kFlagQpRowsFull = 1u << 7,      ///< more constraint rows than the QP capacity
-  kFlagBacktracked = 1u << 8,     ///< the solution overlapped rigid tissue and was shortened
-  kFlagWrongState = 1u << 9,      ///< the state or the params were made for another model; nothing was done
+  kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf; the last good one was used
+  kFlagJumpLimited = 1u << 1,        ///< the haptic tool moved further than max_jump in one step
+  kFlagInfeasible = 1u << 2,         ///< the constraints contradicted each other; the tool held still
+  kFlagContactOverflow = 1u << 3,    ///< more sphere pairs than the contact capacity
+  kFlagForceClamped = 1u << 4,       ///< force limited to the device maximum
+  kFlagTorqueClamped = 1u << 5,      ///< torque limited to the device maximum
+  kFlagLagging = 1u << 6,            ///< sub-step budget exhausted; the graphic tool is catching up
+  kFlagQpRowsFull = 1u << 7,         ///< more constraint rows than the QP capacity
+  kFlagBacktracked = 1u << 8,        ///< the solution overlapped rigid tissue and was shortened
+  kFlagWrongState = 1u << 9,         ///< the state or params were made for another model; nothing was done
+  kFlagQpActiveSetFull = 1u << 10,   ///< more rows wanted to be active than the QP holds; last iterate used
+  kFlagQpIterationLimit = 1u << 11,  ///< the QP ran out of dual steps; its last iterate was used
 };
 
 /// One contact as reported to the viewer / logs (the strongest few).
@@ -77,7 +80,7 @@ struct StepOutput {
   TunnelSpheres tunnel;
 };
 
-struct StateImpl;  // scratch and history; see src/render/state_impl.hpp
+struct StateImpl;  // history and stage data; see src/render/state_impl.hpp and src/render/stages.hpp
 
 /// Everything the step carries from one cycle to the next, plus scratch reserved at creation.
 class State {

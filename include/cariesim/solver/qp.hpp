@@ -44,6 +44,7 @@ namespace cariesim {
 
 inline constexpr int kQpMaxRows = 96;    ///< rows per problem
 inline constexpr int kQpMaxActive = 24;  ///< simultaneously active rows
+inline constexpr int kQpMaxIterations = 8 * kQpMaxRows;  ///< dual steps per solve before IterationLimit
 /// Largest magnitude accepted for any entry of G, x_target, a, b and compliance (and the smallest
 /// accepted pivot of G is its inverse); beyond it the input is reported as BadInput.
 inline constexpr double kQpMaxMagnitude = 1e9;
@@ -90,6 +91,8 @@ struct QpResult {
 /// Goldfarb-Idnani dual active-set solver with a remembered active set. Allocation-free.
 class QpSolver {
  public:
+  /// A solver that stops with IterationLimit after `max_iterations` dual steps (at least 1).
+  explicit QpSolver(int max_iterations = kQpMaxIterations);
   /// Solves `problem`; when `warm` is set, starts from the rows whose keys were active last time.
   QpStatus solve(const QpProblem& problem, QpResult& result, bool warm = true);
   /// Forgets the remembered active set.
@@ -98,6 +101,7 @@ class QpSolver {
  private:
   std::array<uint64_t, kQpMaxActive> warm_keys_{};  ///< sorted keys of the last active set
   int warm_count_ = 0;                              ///< keys in use in warm_keys_
+  int max_iterations_ = kQpMaxIterations;           ///< dual steps per solve
 };
 
 }  // namespace cariesim

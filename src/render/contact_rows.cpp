@@ -1,0 +1,138 @@
+// Contact rows: the non-penetration constraint of paper eq. 1, linearised (DESIGN.md §4 step 2).
+//
+// Each pair (tool leaf t, object leaf o) is linearised at the rows' configuration: with lever
+// a = c_t - p_g and normal n (measure_pair), a small motion (dp, dθ) changes the gap by
+// n·(dp + dθ × a) = n·dp + (a × n)·dθ, so non-penetration is the row
+//     n·dp + (a × n)·dθ >= -gap.
+// On compliant tissue (finite stiffness k) the row is regularised with compliance 1/k: the tool may
+// sink until the tissue's spring force λ = k·depth balances the coupling.
+// This builder owns the contact rows' key space (contact_key).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "render/stages.hpp"
+
+namespace cariesim::detail {
+
+namespace {
+
+using PairGroup = ContactRowScratch::PairGroup;
+
+// The group of a pair: its compliant region, or its rigid (tool leaf, object) slot.
+PairGroup* group_of(ContactRowScratch& sc, const PairRef& p, const Region& reg, int region) {
+  if (reg.compliant) {
+    PairGroup& g = sc.region_groups[region];
+    if (g.stamp != sc.stamp) g = PairGroup{sc.stamp, p.object, 0, {}};
+    return &g;
+  }
+  for (int slot = 0; slot < 2; ++slot) {
+    PairGroup& g = sc.leaf_groups[2 * p.tool_leaf + slot];
+    if (g.stamp != sc.stamp) {
+      g = PairGroup{sc.stamp, p.object, 0, {}};
+      return &g;
+    }
+    if (g.object == p.object) return &g;
+  }
+  return nullptr;  // a third object for this tool leaf: its rows are not deduplicated
+}
+
+}  // namespace
+
+ContactRowScratch::ContactRowScratch(const ModelConstants& k) : leaf_groups(2 * k.tool_leaves) {}
+
+int build_contact_rows(const Model& m, const Params& params, const PairSet& pairs, const RegionSet& regions,
+                       bool hold_only, ContactRowScratch& sc, RowSet& rows) {
+  int added = 0;
+  ++sc.stamp;
+  // One row per pair; a rigid group records the pairs that got one.
+  const auto add_row = [&](int i, int r, PairGroup* group) {
+    const PairGeometry& geo = pairs.geometry[i];
+    const PairRef& p = pairs.refs[i];
+    QpRow row;
+    row.a.head<3>() = geo.normal;
+    row.a.tail<3>() = geo.lever.cross(geo.normal);
+    row.b = -geo.gap;
+    const Material& mat = params.materials[m.objects[p.object].tree.nodes[p.object_node].material];
+    if (regions.regions[r].compliant) {
+      row.compliance = 1.0 / mat.stiffness;
+    } else if (hold_only) {
+      row.b = std::min(row.b, 0.0);
+    }
+    row.key = contact_key(p);
+    if (!rows.add(row, RowMeta{RowKind::Contact, static_cast<int16_t>(r), -1, static_cast<int16_t>(i)}))
+      return false;
+    ++rows.contacts;
+    if (group != nullptr && group->count < kMaxRowsPerGroup)
+      group->pairs[group->count++] = static_cast<int16_t>(i);
+    ++added;
+    return true;
+  };
+
+  // Pass 1, pairs from the deepest: rigid pairs get rows, a few per (tool leaf, object) with distinct
+  // normals (the rest are redundant). Compliant pairs elect, per region and distinct surface
+  // direction, one pair of the deepest tool leaf: the leaf whose tangent point lies nearest that tool
+  // leaf sideways, the best local estimate of the surface (so that many overlapping spheres do not
+  // act as parallel springs).
+  for (int j = 0; j < regions.pairs; ++j) {
+    const int i = regions.order[j];
+    const int r = regions.pair_region[i];
+    if (r < 0) continue;
+    const Region& reg = regions.regions[r];
+    const PairRef& p = pairs.refs[i];
+    const PairGeometry& geo = pairs.geometry[i];
+    PairGroup* group = group_of(sc, p, reg, r);
+    if (reg.compliant) {
+      if (group == nullptr) continue;
+      int similar = -1;
+      for (int e = 0; e < group->count && similar < 0; ++e)
+        if (pairs.geometry[group->pairs[e]].normal.dot(geo.normal) > kCompliantNormalCos) similar = e;
+      if (similar >= 0) {
+        // Pairs come deepest first, so the elector's tool leaf is the deepest; among that leaf's
+        // pairs the patch nearest the tool sideways describes the surface best.
+        const int elector = group->pairs[similar];
+        if (pairs.refs[elector].tool_leaf == p.tool_leaf && geo.lateral < pairs.geometry[elector].lateral)
+          group->pairs[similar] = static_cast<int16_t>(i);
+      } else if (group->count < kMaxRowsPerGroup) {
+        group->pairs[group->count++] = static_cast<int16_t>(i);
+      }
+      continue;
+    }
+    if (group != nullptr && !p.forced) {
+      bool similar = false;
+      for (int e = 0; e < group->count; ++e)
+        similar = similar || pairs.geometry[group->pairs[e]].normal.dot(geo.normal) > kRigidNormalCos;
+      if (similar || group->count >= kMaxRowsPerGroup) continue;
+    }
+    if (!add_row(i, r, group)) return added;
+  }
+
+  // Pass 2, compliant regions: a solid's penetration is the distance to its nearest surface, so of
+  // the elected directions only those whose depth is within kCompliantDepthSlack of the shallowest
+  // push (a tool sunk in soft caries that meets a firmer wall is pushed back by the wall, not thrown
+  // up through the material above it). Directions not yet penetrated stay as constraints. Pairs
+  // measured sphere against sphere (interior fillers, or a tool beside every leaf's patch) only
+  // count when no surface patch lies over the tool: they catch a tool sunk deeper than the patches.
+  for (int r = 0; r < regions.count; ++r) {
+    const PairGroup& group = sc.region_groups[r];
+    if (!regions.regions[r].compliant || group.stamp != sc.stamp) continue;
+    bool planar = false;
+    for (int e = 0; e < group.count; ++e)
+      planar = planar || std::isfinite(pairs.geometry[group.pairs[e]].lateral);
+    double shallowest = std::numeric_limits<double>::infinity();
+    for (int e = 0; e < group.count; ++e) {
+      const PairGeometry& geo = pairs.geometry[group.pairs[e]];
+      if (geo.gap < 0.0 && (!planar || std::isfinite(geo.lateral)))
+        shallowest = std::min(shallowest, -geo.gap);
+    }
+    for (int e = 0; e < group.count; ++e) {
+      const PairGeometry& geo = pairs.geometry[group.pairs[e]];
+      if (planar && !std::isfinite(geo.lateral)) continue;
+      if (-geo.gap > shallowest + kCompliantDepthSlack) continue;
+      if (!add_row(group.pairs[e], r, nullptr)) return added;
+    }
+  }
+  return added;
+}
+
+}  // namespace cariesim::detail

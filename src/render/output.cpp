@@ -1,0 +1,84 @@
+// The output stage: the only place a StepOutput is written. Force and torque from the graphic/haptic
+// difference (paper eqs. 2, 6, 7) with the step's one clamp, against Params::limits; the state and
+// depth; the contact summaries; what the stages reported.
+#include <algorithm>
+#include <cmath>
+
+#include "render/state_impl.hpp"
+
+namespace cariesim::detail {
+
+StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, const Pose& haptic,
+                       const StepTrace& trace, std::chrono::steady_clock::time_point start) {
+  StepOutput out;
+  out.flags = trace.flags;
+
+  // Force and torque: the coupling while sliding (eq. 2), the tunnel's stiffness while penetrating
+  // (eq. 6: k_p^t, the device's maximum stiffness; eq. 7: k_θ), bounded by the device.
+  const bool inside =
+      s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
+  double k_t = p.gains.k_trans, k_r = p.gains.k_rot;
+  if (inside) {
+    k_t = p.limits.max_stiffness;
+    k_r = p.materials[s.tunnel.material].k_theta;
+  }
+  Vec3 force = k_t * (s.graphic.p - haptic.p);
+  Vec3 torque = k_r * rotation_vector(s.graphic.q * haptic.q.conjugate());
+  if (!force.allFinite()) force.setZero();
+  if (!torque.allFinite()) torque.setZero();
+  if (force.norm() > p.limits.max_force) {
+    force *= p.limits.max_force / force.norm();
+    out.flags |= kFlagForceClamped;
+  }
+  if (torque.norm() > p.limits.max_torque) {
+    torque *= p.limits.max_torque / torque.norm();
+    out.flags |= kFlagTorqueClamped;
+  }
+  out.force = force;
+  out.torque = torque;
+
+  // Poses, state, depth, and what the stages counted.
+  out.graphic = s.graphic;
+  out.haptic = haptic;
+  out.state = s.interaction;
+  out.depth = inside ? s.tunnel.depth0 + s.tunnel.depth : 0.0;
+  out.lesion = inside ? s.tunnel.lesion : s.tip.lesion;
+  out.contacts = trace.contacts;
+  out.substeps = trace.substeps;
+  out.slips = trace.slips;
+
+  // Contact summaries: total normal force, soft tissue load, the tip's tissue, the strongest contacts.
+  for (int r = 0; r < s.regions.count; ++r) {
+    const Region& reg = s.regions.regions[r];
+    const Material& mat = p.materials[reg.material];
+    const double normal_force = s.solution.region_force[r];
+    out.normal_force += normal_force;
+    if (mat.tissue == Tissue::Gingiva || mat.tissue == Tissue::Tongue)
+      out.soft_tissue_force = std::max(out.soft_tissue_force, normal_force);
+    if (reg.tip && (normal_force > 0.0 || reg.gap < 0.0)) out.tip_tissue = static_cast<int>(mat.tissue);
+    const ContactReport report{
+        s.graphic.transform(reg.tool_point_local) - reg.normal * s.constants.leaf_radius[reg.tool_leaf],
+        reg.normal, normal_force, reg.object, reg.tool_leaf};
+    if (out.contact_report_count < kMaxReportedContacts) {
+      out.contact_reports[out.contact_report_count++] = report;
+    } else {
+      auto weakest =
+          std::min_element(out.contact_reports.begin(), out.contact_reports.end(),
+                           [](const ContactReport& a, const ContactReport& b) { return a.force < b.force; });
+      if (weakest->force < report.force) *weakest = report;
+    }
+  }
+  if (inside) out.normal_force = std::abs(force.dot(s.tunnel.n));
+  tunnel_spheres(m, s, out.tunnel);
+
+  out.step_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+StepOutput refused_output() {
+  StepOutput out;
+  out.flags = kFlagWrongState;
+  return out;
+}
+
+}  // namespace cariesim::detail

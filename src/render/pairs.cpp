@@ -1,0 +1,168 @@
+// Stage 1, collision (DESIGN.md §4 step 1): the sphere pairs the rows of one sub-step are made of,
+// each measured once at the rows' configuration; and the re-check at a solution.
+//
+// collide() (collision module) finds the pairs and their sphere-against-sphere gaps; the geometry the
+// rows use is measured here, by measure_pair, because a compliant leaf is measured against its
+// tangent patch rather than its sphere (see below), which is the step's business, not collision's.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "render/state_impl.hpp"
+
+namespace cariesim::detail {
+
+CollisionScratch::CollisionScratch(const Model& model)
+    : placed(model.tool.tree), contacts(model.capacities.contacts) {
+  leaf_margin.resize(model.tool.tree.leaf_count());
+  order.resize(model.capacities.contacts);
+  rank.resize(model.capacities.contacts);
+}
+
+void set_leaf_margins(const Model& m, const ModelConstants& k, double trans, double rot,
+                      CollisionScratch& c) {
+  for (std::size_t i = 0; i < k.tool_leaves; ++i)
+    c.leaf_margin[i] = trans + rot * k.leaf_reach[i] + m.settings.contact_margin;
+}
+
+PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g, const PairRef& p) {
+  const SphereTree& tree = m.objects[p.object].tree;
+  const SphereNode& node = tree.nodes[p.object_node];
+  const Vec3 c_t = g.transform(k.leaf_local[p.tool_leaf]);
+  const Vec3 c_o = node.center.cast<double>();
+  const double r_t = k.leaf_radius[p.tool_leaf];
+  const double r_o = node.radius;
+  PairGeometry out;
+  out.lever = c_t - g.p;
+
+  // Compliant tissue, with the tool over one of the leaf's tangent patches: depth below that patch's
+  // plane, using the tangent that faces the tool. Every leaf of one flat patch then gives the same
+  // depth and normal, however many overlap, and the depth stays right when the tool sinks deeper
+  // than the leaf's centre.
+  // A caries tree's walls (its interface with healthy tissue) are not a surface the tool can meet
+  // (the healthy tree's walls there are): its leaves are measured against their exposed patches
+  // only, and a leaf with nothing but wall patches is marked `wall` and ignored.
+  const Vec3 d = c_t - c_o;
+  if (!m.defaults.materials[node.material].rigid() && node.leaf < tree.leaf_tangents.size()) {
+    const LeafTangents& t = tree.leaf_tangents[node.leaf];
+    const bool lesion = m.objects[p.object].lesion >= 0;
+    int best = -1;
+    double best_h = -std::numeric_limits<double>::infinity();
+    for (int j = 0; j < t.count; ++j) {
+      if (lesion && ((t.wall_mask >> j) & 1u)) continue;
+      const double h = d.dot(t.normal[j].cast<double>());
+      if (h > best_h) best_h = h, best = j;
+    }
+    out.wall = lesion && t.count > 0 && best < 0;
+    if (best >= 0) {
+      const Vec3 n_s = t.normal[best].cast<double>();
+      const double lateral = (d - best_h * n_s).norm();
+      if (lateral <= r_o) {
+        out.normal = n_s;
+        out.gap = best_h - r_o - r_t;
+        out.lateral = lateral;
+        return out;
+      }
+    }
+  }
+
+  // Sphere against sphere.
+  const double dist = d.norm();
+  // Coincident centres: push along the tool's own axis, any finite direction will do.
+  out.normal = dist > 1e-12 ? Vec3(d / dist) : Vec3(g.z_axis());
+  out.gap = dist - r_t - r_o;
+  return out;
+}
+
+bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g0,
+                   ObjectMask mask, PairSet& out) {
+  // Every pair within its tool leaf's margin, a bounded number per (tool leaf, object).
+  c.placed.place(g0, c.leaf_margin);
+  c.contacts.clear();
+  collide(c.placed, m.objects, mask, c.contacts, kStepPairsPerToolLeaf);
+  const std::size_t found = c.contacts.size();
+  out.count = 0;
+  out.at = g0;
+  const auto keep = [&](const Contact& con) {
+    const PairRef ref{con.object_node, con.tool_leaf, con.object, false};
+    out.refs[out.count] = ref;
+    out.geometry[out.count] = measure_pair(m, k, g0, ref);
+    ++out.count;
+  };
+  if (found <= kMaxPairs) {
+    for (std::size_t i = 0; i < found; ++i) keep(c.contacts[i]);
+    out.overflow = c.contacts.overflow();
+    return !out.overflow;
+  }
+
+  // More pairs than the rows can use: share the list fairly. Each (tool leaf, object) keeps its
+  // nearest pairs, the same number for all, as many as fit; a crowd of deep pairs (a handle in soft
+  // tissue) then cannot push out the few that hold the tip on a lesion's surface.
+  std::span<uint32_t> order(c.order.data(), found);
+  for (std::size_t i = 0; i < found; ++i) order[i] = static_cast<uint32_t>(i);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const Contact& x = c.contacts[a];
+    const Contact& y = c.contacts[b];
+    if (x.tool_leaf != y.tool_leaf) return x.tool_leaf < y.tool_leaf;
+    if (x.object != y.object) return x.object < y.object;
+    return x.gap < y.gap;
+  });
+  std::array<int, kStepPairsPerToolLeaf + 1> per_rank{};
+  for (std::size_t i = 0; i < found; ++i) {
+    const bool same = i > 0 && c.contacts[order[i]].tool_leaf == c.contacts[order[i - 1]].tool_leaf &&
+                      c.contacts[order[i]].object == c.contacts[order[i - 1]].object;
+    c.rank[i] =
+        same ? static_cast<uint16_t>(std::min<int>(c.rank[i - 1] + 1, kStepPairsPerToolLeaf)) : uint16_t{0};
+    ++per_rank[c.rank[i]];
+  }
+  int keep_below = 0, total = 0;
+  while (keep_below < static_cast<int>(kStepPairsPerToolLeaf) && total + per_rank[keep_below] <= kMaxPairs)
+    total += per_rank[keep_below++];
+  for (std::size_t i = 0; i < found; ++i)
+    if (c.rank[i] < keep_below) keep(c.contacts[order[i]]);
+  out.overflow = true;
+  return false;
+}
+
+Recheck recheck_rigid(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g1,
+                      ObjectMask mask, PairSet& pairs) {
+  // The deepest overlap with the rigid objects; within the tolerance nothing changes.
+  Recheck out;
+  const ObjectMask rigid = mask & k.rigid_mask;
+  c.placed.place(g1, 0.0);
+  const ClosestPair worst = closest(c.placed, m.objects, rigid, 0.0);
+  out.worst = std::isfinite(worst.gap) ? worst.gap : 0.0;
+  if (!(worst.gap < -m.settings.rigid_tolerance)) return out;
+
+  // Overlaps beyond the tolerance: bring every such pair into the set, measured at the rows'
+  // configuration like the others.
+  std::fill(c.leaf_margin.begin(), c.leaf_margin.end(), 0.0);
+  c.placed.place(g1, c.leaf_margin);
+  c.contacts.clear();
+  collide(c.placed, m.objects, rigid, c.contacts, kStepPairsPerToolLeaf);
+  for (std::size_t i = 0; i < c.contacts.size() && pairs.count < kMaxPairs; ++i) {
+    const Contact& con = c.contacts[i];
+    if (!(con.gap < -m.settings.rigid_tolerance)) continue;
+    bool known = false;
+    for (int j = 0; j < pairs.count && !known; ++j) {
+      const PairRef& p = pairs.refs[j];
+      known = p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object;
+    }
+    if (known) continue;
+    const PairRef ref{con.object_node, con.tool_leaf, con.object, true};
+    pairs.refs[pairs.count] = ref;
+    pairs.geometry[pairs.count] = measure_pair(m, k, pairs.at, ref);
+    ++pairs.count;
+    ++out.added;
+  }
+  return out;
+}
+
+double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g,
+                       ObjectMask mask) {
+  c.placed.place(g, 0.0);
+  const ClosestPair closest_pair = closest(c.placed, m.objects, mask & k.rigid_mask, 0.0);
+  return std::isfinite(closest_pair.gap) ? std::min(closest_pair.gap, 0.0) : 0.0;
+}
+
+}  // namespace cariesim::detail

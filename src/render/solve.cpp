@@ -1,0 +1,65 @@
+// Stage 4, solve: the QP of the rows (solver/qp.hpp) and what its answer means for the step. Every
+// status other than Optimal raises a flag: Infeasible and BadInput (and a non-finite answer) leave
+// the tool where it is; ActiveSetFull and IterationLimit keep the solver's last dual iterate, which
+// is finite and honours the rows it had made active, and say so.
+#include <algorithm>
+
+#include "render/stages.hpp"
+
+namespace cariesim::detail {
+
+void RowSet::clear(const Mat6& G, const Vec6& x_target) {
+  problem.row_count = 0;
+  problem.G = G;
+  problem.x_target = x_target;
+  contacts = 0;
+  full = false;
+  for (auto& anchor : anchor_rows) anchor = {-1, -1};
+}
+
+bool RowSet::add(const QpRow& row, const RowMeta& row_meta) {
+  if (!problem.add(row)) {
+    full = true;
+    return false;
+  }
+  meta[problem.row_count - 1] = row_meta;
+  return true;
+}
+
+uint32_t flags_of(QpStatus status) {
+  switch (status) {
+    case QpStatus::Optimal:
+      return 0u;
+    case QpStatus::Infeasible:
+    case QpStatus::BadInput:
+      return kFlagInfeasible;
+    case QpStatus::ActiveSetFull:
+      return kFlagQpActiveSetFull;
+    case QpStatus::IterationLimit:
+      return kFlagQpIterationLimit;
+  }
+  return kFlagInfeasible;
+}
+
+void solve_rows(const RowSet& rows, const RegionSet& regions, QpSolver& solver, Solution& out) {
+  // The QP; an answer that cannot be used (infeasible, bad input, not finite) moves nothing and
+  // carries no force.
+  const QpStatus status = solver.solve(rows.problem, out.qp);
+  out.flags = flags_of(status);
+  out.d = out.qp.x;
+  if (status == QpStatus::Infeasible || status == QpStatus::BadInput || !out.d.allFinite()) {
+    out.flags |= kFlagInfeasible;
+    out.d.setZero();
+    out.qp.lambda.fill(0.0);
+  }
+
+  // Each region's normal force: the sum of its contact rows' multipliers.
+  for (int r = 0; r < regions.count; ++r) out.region_force[r] = 0.0;
+  for (int row = 0; row < rows.problem.row_count; ++row) {
+    const RowMeta& meta = rows.meta[row];
+    if (meta.kind == RowKind::Contact && meta.region >= 0)
+      out.region_force[meta.region] += std::max(0.0, out.qp.lambda[row]);
+  }
+}
+
+}  // namespace cariesim::detail

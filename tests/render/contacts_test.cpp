@@ -1,0 +1,375 @@
+// The step's first stages, tested directly (src/render/stages.hpp): collision (pairs measured once),
+// regions, contact rows and the solve, with closed-form checks on a sphere over a plane.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <vector>
+
+#include "render/render_support.hpp"
+#include "render/state_impl.hpp"
+
+namespace cariesim {
+namespace {
+
+using namespace detail;
+using test::probe_at;
+
+constexpr double kTip = 0.05;   // mm, the straight probe's tip radius
+constexpr double kSlabR = 2.0;  // mm, the slab's sphere radius
+
+// One slab (top z = 0) of the given material, rigid or soft.
+Model slab_model(const Material& material, ObjectKind kind) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -3.0;
+  spec.x1 = spec.y1 = 3.0;
+  return test::model({test::object("slab", test::slab(spec, [](const Vec3&) { return 0; }), kind)},
+                     {material});
+}
+
+// The node of object `object` whose leaf sphere is centred at `center`.
+uint32_t node_at(const Model& m, int object, const Vec3& center) {
+  const SphereTree& tree = m.objects[object].tree;
+  for (uint32_t node : tree.leaf_nodes)
+    if ((tree.nodes[node].center.cast<double>() - center).norm() < 1e-6) return node;
+  ADD_FAILURE() << "no leaf at " << center.transpose();
+  return 0;
+}
+
+// Margins for a sub-step bounded by `trans` mm and no rotation, then the pairs at g.
+void collect(const Model& m, StateImpl& s, const Pose& g, double trans) {
+  set_leaf_margins(m, s.constants, trans, 0.0, s.collision);
+  collect_pairs(m, s.constants, s.collision, g, kAllObjects, s.pairs);
+}
+
+// A rigid leaf is measured sphere against sphere: the gap, the normal from the object sphere's
+// centre, the lever from the tool-frame origin.
+TEST(MeasurePair, RigidLeafIsSphereAgainstSphere) {
+  const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  const ModelConstants& k = state.impl().constants;
+  const PairRef under{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
+  // The tip 0.1 mm sideways and 0.03 mm above the plane.
+  const Pose g = probe_at(Vec3(0.1, 0.0, kTip + 0.03));
+  const PairGeometry geo = measure_pair(m, k, g, under);
+  const Vec3 d = g.p - Vec3(0, 0, -kSlabR);
+  const double r_o = m.objects[0].tree.nodes[under.object_node].radius;  // float storage
+  EXPECT_NEAR(geo.gap, d.norm() - k.leaf_radius[0] - r_o, 1e-12);
+  EXPECT_NEAR(geo.gap, d.norm() - kTip - kSlabR, 1e-6);
+  EXPECT_NEAR((geo.normal - d.normalized()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(geo.lever.norm(), 0.0, 1e-12);
+  EXPECT_TRUE(std::isinf(geo.lateral));
+  EXPECT_FALSE(geo.wall);
+  // A leaf up the tool: its lever is its centre, turned with the tool.
+  const Pose tilted{Vec3(0, 0, 3), Quat(Eigen::AngleAxisd(0.3, Vec3::UnitY()))};
+  const int leaf = static_cast<int>(k.tool_leaves) - 1;
+  const PairGeometry up =
+      measure_pair(m, k, tilted, PairRef{under.object_node, static_cast<uint16_t>(leaf), 0, false});
+  EXPECT_NEAR((up.lever - tilted.q * k.leaf_local[leaf]).norm(), 0.0, 1e-12);
+}
+
+// A compliant leaf under the tool is measured against its tangent plane: depth below the plane,
+// the plane's normal, and how far sideways the tool lies from the tangent point.
+TEST(MeasurePair, CompliantLeafIsMeasuredAgainstItsTangentPlane) {
+  const Model m = slab_model(test::soft(0.5), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  const ModelConstants& k = state.impl().constants;
+  const PairRef under{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
+  const PairGeometry geo = measure_pair(m, k, probe_at(Vec3(0.1, 0.0, kTip - 0.02)), under);
+  EXPECT_NEAR(geo.gap, -0.02, 1e-6);  // the plane's depth, not the sphere's (-0.0175)
+  EXPECT_NEAR((geo.normal - Vec3::UnitZ()).norm(), 0.0, 1e-7);
+  EXPECT_NEAR(geo.lateral, 0.1, 1e-6);
+  // Beside the leaf (farther sideways than its radius): sphere against sphere again.
+  const Pose beside = probe_at(Vec3(2.5, 0.0, kTip - 0.02));
+  const PairGeometry far = measure_pair(m, k, beside, under);
+  EXPECT_TRUE(std::isinf(far.lateral));
+  EXPECT_NEAR(far.gap, (beside.p - Vec3(0, 0, -kSlabR)).norm() - kTip - kSlabR, 1e-9);
+}
+
+// A caries tree's leaf with nothing but wall patches (its interface with healthy tissue) is marked
+// and belongs to no region; the same leaf in a healthy tree is an ordinary surface.
+TEST(MeasurePair, CariesWallLeafIsMarkedAndLeftOut) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -1.0;
+  spec.x1 = spec.y1 = 1.0;
+  std::vector<LeafSphere> walls = test::slab(spec, [](const Vec3&) { return 0; });
+  for (LeafSphere& l : walls) l.tangents.wall_mask = 1;
+  Material caries = test::soft(0.5, 0.0, 0.0, Tissue::Caries);
+  caries.lesion = 0;
+  const Model m = test::model(
+      {test::object("caries", walls, ObjectKind::Soft, 0), test::object("healthy", walls, ObjectKind::Soft)},
+      {caries});
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  const Pose g = probe_at(Vec3(0, 0, kTip - 0.1));
+  const PairRef in_lesion{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
+  const PairRef in_healthy{node_at(m, 1, Vec3(0, 0, -kSlabR)), 0, 1, false};
+  EXPECT_TRUE(measure_pair(m, s.constants, g, in_lesion).wall);
+  EXPECT_FALSE(measure_pair(m, s.constants, g, in_healthy).wall);
+  collect(m, s, g, 0.01);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  ASSERT_GT(s.pairs.count, 0);
+  ASSERT_EQ(s.regions.count, 1);
+  EXPECT_EQ(s.regions.regions[0].object, 1);
+  for (int i = 0; i < s.pairs.count; ++i)
+    EXPECT_EQ(s.regions.pair_region[i] < 0, s.pairs.refs[i].object == 0) << i;
+}
+
+// The collision stage measures every pair once, at the rows' configuration: the stored geometry is
+// measure_pair's at `at`, bit for bit, and the nearest pair is the closed-form gap.
+TEST(CollectPairs, MeasuresEachPairOnceAtTheRowsConfiguration) {
+  const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  const Pose g = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
+  collect(m, s, g, 0.05);
+  ASSERT_GT(s.pairs.count, 0);
+  EXPECT_FALSE(s.pairs.overflow);
+  EXPECT_EQ(s.pairs.at.p, g.p);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < s.pairs.count; ++i) {
+    const PairGeometry again = measure_pair(m, s.constants, g, s.pairs.refs[i]);
+    EXPECT_EQ(s.pairs.geometry[i].gap, again.gap) << i;
+    EXPECT_EQ(s.pairs.geometry[i].normal, again.normal) << i;
+    EXPECT_FALSE(s.pairs.refs[i].forced);
+    // Within the margin: the sub-step's reach plus the contact margin.
+    EXPECT_LT(s.pairs.geometry[i].gap, 0.05 + m.settings.contact_margin + 1e-9);
+    nearest = std::min(nearest, s.pairs.geometry[i].gap);
+  }
+  EXPECT_NEAR(nearest, 0.01, 1e-6);
+}
+
+// More pairs than the contact capacity: the stage reports overflow and keeps what fits.
+TEST(CollectPairs, ReportsOverflow) {
+  Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  m.capacities.contacts = 4;
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  set_leaf_margins(m, s.constants, 0.5, 0.0, s.collision);
+  EXPECT_FALSE(
+      collect_pairs(m, s.constants, s.collision, probe_at(Vec3(0, 0, kTip + 0.01)), kAllObjects, s.pairs));
+  EXPECT_TRUE(s.pairs.overflow);
+  EXPECT_EQ(s.pairs.count, 4);
+}
+
+// Regions: pairs sorted from the deepest; one region per object and nearby tool point, founded by
+// the deepest pair, regions of one object at least kRegionRadius apart; the tip's region is marked.
+// Here the tip sinks into a soft floor and the shank into a soft wall.
+TEST(BuildRegions, OnePerObjectAndToolPointFoundedByTheDeepest) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -2.0;
+  spec.x1 = spec.y1 = 2.0;
+  const auto leaves = test::slab(spec, [](const Vec3&) { return 0; });
+  auto wall = leaves;  // a second slab turned into the wall x = 2.5, facing -x, over z in [2, 6]
+  for (LeafSphere& l : wall) {
+    l.center = Vec3f(2.5f + static_cast<float>(kSlabR), l.center.y(), l.center.x() + 4.0f);
+    l.tangents.normal[0] = -Vec3f::UnitX();
+  }
+  const Model m = test::model(
+      {test::object("floor", leaves, ObjectKind::Soft), test::object("wall", wall, ObjectKind::Soft)},
+      {test::soft(1.0)});
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  // The tip 0.1 mm into the floor; the shank (1 mm radius from z = 3.5) 0.2 mm into the wall.
+  const Pose g = probe_at(Vec3(1.7, 0.0, kTip - 0.1));
+  collect(m, s, g, 0.01);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  ASSERT_GE(s.regions.count, 2);
+  EXPECT_EQ(s.regions.pairs, s.pairs.count);
+  for (int j = 1; j < s.regions.pairs; ++j)
+    EXPECT_LE(s.pairs.geometry[s.regions.order[j - 1]].gap, s.pairs.geometry[s.regions.order[j]].gap);
+  int floor_regions = 0;
+  for (int r = 0; r < s.regions.count; ++r) {
+    const Region& reg = s.regions.regions[r];
+    EXPECT_TRUE(reg.compliant);
+    EXPECT_EQ(reg.gap, s.pairs.geometry[reg.pair].gap);
+    EXPECT_EQ(reg.tip, reg.object == 0) << "the floor's region holds the tip, the wall's the shank";
+    floor_regions += reg.object == 0;
+    for (int q = 0; q < r; ++q) {
+      const Region& other = s.regions.regions[q];
+      if (other.object == reg.object) {
+        EXPECT_GE((other.tool_point_local - reg.tool_point_local).norm(), kRegionRadius);
+      }
+    }
+  }
+  EXPECT_EQ(floor_regions, 1);
+  // Every pair belongs to the first region of its object near its tool point, and is no deeper than
+  // the pair that founded it.
+  for (int i = 0; i < s.pairs.count; ++i) {
+    const int r = s.regions.pair_region[i];
+    ASSERT_GE(r, 0) << i;
+    const Region& reg = s.regions.regions[r];
+    EXPECT_EQ(reg.object, s.pairs.refs[i].object);
+    EXPECT_LT((reg.tool_point_local - s.constants.leaf_local[s.pairs.refs[i].tool_leaf]).norm(),
+              kRegionRadius);
+    EXPECT_GE(s.pairs.geometry[i].gap, reg.gap);
+  }
+  int f = 0;
+  while (s.regions.regions[f].object != 0) ++f;
+  const Region& floor = s.regions.regions[f];
+  EXPECT_NEAR(floor.gap, -0.1, 1e-6);
+  EXPECT_NEAR((floor.normal - Vec3::UnitZ()).norm(), 0.0, 1e-7);
+}
+
+// Rigid contact rows: the linearised gap n·dp + (a × n)·dθ >= -gap, rigid (no compliance), keyed in
+// the contact key space, at most kMaxRowsPerGroup per (tool leaf, object) with distinct normals.
+TEST(ContactRows, RigidRowsAreTheLinearisedGap) {
+  const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  const Pose g{Vec3(0.05, 0.0, kTip + 0.005), Quat(Eigen::AngleAxisd(0.2, Vec3::UnitX()))};
+  collect(m, s, g, 0.05);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  s.rows.clear(Mat6::Identity(), Vec6::Zero());
+  const int added = build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+  ASSERT_GT(added, 0);
+  EXPECT_EQ(added, s.rows.contacts);
+  EXPECT_EQ(added, s.rows.problem.row_count);
+  std::set<uint64_t> keys;
+  std::map<std::pair<int, int>, std::vector<Vec3>> per_group;
+  for (int r = 0; r < s.rows.problem.row_count; ++r) {
+    const QpRow& row = s.rows.problem.rows[r];
+    const RowMeta& meta = s.rows.meta[r];
+    ASSERT_EQ(meta.kind, RowKind::Contact);
+    const PairGeometry& geo = s.pairs.geometry[meta.pair];
+    const PairRef& ref = s.pairs.refs[meta.pair];
+    EXPECT_EQ(Vec3(row.a.head<3>()), geo.normal);
+    EXPECT_EQ(Vec3(row.a.tail<3>()), geo.lever.cross(geo.normal));
+    EXPECT_EQ(row.b, -geo.gap);
+    EXPECT_EQ(row.compliance, 0.0);
+    EXPECT_FALSE(row.equality);
+    EXPECT_EQ(row.key, contact_key(ref));
+    EXPECT_EQ(meta.region, s.regions.pair_region[meta.pair]);
+    keys.insert(row.key);
+    per_group[{ref.tool_leaf, ref.object}].push_back(geo.normal);
+  }
+  EXPECT_EQ(keys.size(), static_cast<std::size_t>(added)) << "one key per row";
+  for (const auto& [group, normals] : per_group) {
+    EXPECT_LE(normals.size(), static_cast<std::size_t>(kMaxRowsPerGroup));
+    for (std::size_t a = 0; a < normals.size(); ++a)
+      for (std::size_t b = a + 1; b < normals.size(); ++b)
+        EXPECT_LE(normals[a].dot(normals[b]), kRigidNormalCos);
+  }
+  // Inside the tunnel (hold_only) a rigid row never asks to move out of an overlap.
+  const Pose sunk = probe_at(Vec3(0.0, 0.0, kTip - 0.02));
+  collect(m, s, sunk, 0.05);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  s.rows.clear(Mat6::Identity(), Vec6::Zero());
+  build_contact_rows(m, m.defaults, s.pairs, s.regions, true, s.contact_rows, s.rows);
+  ASSERT_GT(s.rows.problem.row_count, 0);
+  for (int r = 0; r < s.rows.problem.row_count; ++r) EXPECT_LE(s.rows.problem.rows[r].b, 0.0);
+}
+
+// A compliant region gives one row per surface direction however many spheres overlap: the tip
+// pressed into a flat soft slab has one row, along the plane's normal, of compliance 1/k.
+TEST(ContactRows, CompliantRegionGivesOneRowPerDirection) {
+  const double k = 0.8;  // N/mm
+  const Model m = slab_model(test::soft(k), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  collect(m, s, probe_at(Vec3(0.03, 0.02, kTip - 0.3)), 0.01);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  ASSERT_GT(s.pairs.count, 20) << "many spheres overlap";
+  ASSERT_EQ(s.regions.count, 1);
+  s.rows.clear(Mat6::Identity(), Vec6::Zero());
+  ASSERT_EQ(build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows), 1);
+  const QpRow& row = s.rows.problem.rows[0];
+  EXPECT_NEAR((Vec3(row.a.head<3>()) - Vec3::UnitZ()).norm(), 0.0, 1e-7);
+  EXPECT_NEAR(row.b, 0.3, 1e-6);
+  EXPECT_DOUBLE_EQ(row.compliance, 1.0 / k);
+}
+
+// A sphere pressed onto a compliant plane, the stages end to end: the tip sits `depth` below the
+// surface and the hand `push` further down; the multiplier is the series spring force
+// (depth + push) / (1/k_t + 1/k), the region carries it, the coupling balances it and the tool sinks
+// below the surface by force / k.
+TEST(Solve, SphereOnACompliantPlane) {
+  const double k = 0.5, k_t = 1.0, depth = 0.2, push = 0.6;  // N/mm, N/mm, mm, mm
+  const Model m = slab_model(test::soft(k), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  collect(m, s, probe_at(Vec3(0, 0, kTip - depth)), 0.01);
+  build_regions(m, s.constants, s.pairs, s.regions);
+  Mat6 G = Mat6::Identity() * k_t;
+  G.diagonal().tail<3>().setConstant(150.0);
+  Vec6 target = Vec6::Zero();
+  target.z() = -push;
+  s.rows.clear(G, target);
+  build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+  solve_rows(s.rows, s.regions, s.solver, s.solution);
+  EXPECT_EQ(s.solution.flags, 0u);
+  EXPECT_EQ(s.solution.qp.status, QpStatus::Optimal);
+  const double force = (depth + push) / (1.0 / k_t + 1.0 / k);
+  EXPECT_NEAR(s.solution.region_force[0], force, 1e-9);
+  EXPECT_NEAR(s.solution.d.z(), -push + force / k_t, 1e-9);
+  EXPECT_NEAR(depth - s.solution.d.z(), force / k, 1e-9);
+  EXPECT_NEAR(s.solution.d.head<2>().norm() + s.solution.d.tail<3>().norm(), 0.0, 1e-9);
+}
+
+// Contradicting rigid rows: the solve stage reports infeasible and moves nothing, with no force.
+TEST(Solve, InfeasibleRowsMoveNothing) {
+  RowSet rows;
+  RegionSet regions;
+  regions.count = 1;
+  Vec6 target = Vec6::Zero();
+  target.x() = 0.3;
+  rows.clear(Mat6::Identity(), target);
+  QpRow right, left;
+  right.a.x() = 1.0;
+  right.b = 1.0;  // x >= 1
+  left.a.x() = -1.0;
+  left.b = 0.0;  // x <= 0
+  ASSERT_TRUE(rows.add(right, RowMeta{RowKind::Contact, 0, -1, 0}));
+  ASSERT_TRUE(rows.add(left, RowMeta{RowKind::Contact, 0, -1, 1}));
+  QpSolver solver;
+  Solution solution;
+  solve_rows(rows, regions, solver, solution);
+  EXPECT_EQ(solution.qp.status, QpStatus::Infeasible);
+  EXPECT_TRUE(solution.flags & kFlagInfeasible);
+  EXPECT_EQ(solution.d, Vec6::Zero());
+  EXPECT_EQ(solution.region_force[0], 0.0);
+}
+
+// Every QP status but Optimal raises a flag; the two capacity statuses have their own.
+TEST(Solve, EveryStatusButOptimalRaisesAFlag) {
+  EXPECT_EQ(flags_of(QpStatus::Optimal), 0u);
+  EXPECT_EQ(flags_of(QpStatus::Infeasible), static_cast<uint32_t>(kFlagInfeasible));
+  EXPECT_EQ(flags_of(QpStatus::BadInput), static_cast<uint32_t>(kFlagInfeasible));
+  EXPECT_EQ(flags_of(QpStatus::ActiveSetFull), static_cast<uint32_t>(kFlagQpActiveSetFull));
+  EXPECT_EQ(flags_of(QpStatus::IterationLimit), static_cast<uint32_t>(kFlagQpIterationLimit));
+}
+
+// A full row set says so and keeps what it holds.
+TEST(RowSet, ReportsWhenFull) {
+  RowSet rows;
+  rows.clear(Mat6::Identity(), Vec6::Zero());
+  for (int i = 0; i < kQpMaxRows; ++i) ASSERT_TRUE(rows.add(QpRow{}, RowMeta{}));
+  EXPECT_FALSE(rows.full);
+  EXPECT_FALSE(rows.add(QpRow{}, RowMeta{}));
+  EXPECT_TRUE(rows.full);
+  EXPECT_EQ(rows.problem.row_count, kQpMaxRows);
+  rows.clear(Mat6::Identity(), Vec6::Zero());
+  EXPECT_FALSE(rows.full);
+  EXPECT_EQ(rows.problem.row_count, 0);
+}
+
+// The three row builders' key spaces never meet.
+TEST(RowKeys, KeySpacesAreDisjoint) {
+  std::set<uint64_t> keys;
+  std::size_t n = 0;
+  for (uint16_t object : {0, 1, 63})
+    for (uint16_t leaf : {0, 1, 65535})
+      for (uint32_t node : {0u, 7u, 0xFFFFFFFFu})
+        keys.insert(contact_key(PairRef{node, leaf, object, false})), ++n;
+  for (int anchor = 0; anchor < kMaxAnchors; ++anchor)
+    for (int tangent = 0; tangent < 2; ++tangent) keys.insert(friction_key(anchor, tangent)), ++n;
+  for (TunnelRow row : {TunnelRow::Lateral0, TunnelRow::Lateral1, TunnelRow::Rotation0, TunnelRow::Rotation1,
+                        TunnelRow::Rotation2, TunnelRow::Bottom, TunnelRow::Hold})
+    keys.insert(tunnel_key(row)), ++n;
+  EXPECT_EQ(keys.size(), n);
+}
+
+}  // namespace
+}  // namespace cariesim

@@ -1,0 +1,198 @@
+// The sub-step (src/render/substep.cpp), tested directly: bounded by its trust region, stopped by a
+// rigid surface, the re-check that brings in pairs the rows missed (measured at the rows'
+// configuration), and the backtrack that keeps the tool out of rigid tissue; and the sliding state's
+// sub-step budget.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "render/render_support.hpp"
+#include "render/state_impl.hpp"
+
+namespace cariesim {
+namespace {
+
+using namespace detail;
+using test::probe_at;
+
+constexpr double kTip = 0.05;  // mm
+
+// A rigid slab (top z = 0).
+Model rigid_slab() {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -3.0;
+  spec.x1 = spec.y1 = 3.0;
+  return test::model(
+      {test::object("slab", test::slab(spec, [](const Vec3&) { return 0; }), ObjectKind::Rigid)},
+      {test::enamel()});
+}
+
+// A low rigid wall: the plane x = 0.4 facing -x, its tangent points over z in [0, 1] (the probe
+// upright at x = 0 clears it: its spheres are thinner than 0.4 mm up to where the wall recedes).
+std::vector<LeafSphere> low_wall() {
+  test::SlabSpec spec;
+  spec.x0 = -0.5;
+  spec.x1 = 0.5;
+  spec.y0 = -2.0;
+  spec.y1 = 2.0;
+  std::vector<LeafSphere> wall = test::slab(spec, [](const Vec3&) { return 0; });
+  for (LeafSphere& l : wall) {
+    l.center = Vec3f(0.4f + 2.0f, l.center.y(), l.center.x() + 0.5f);
+    l.tangents.normal[0] = -Vec3f::UnitX();
+  }
+  return wall;
+}
+
+// A request pulling toward `target` with the default coupling, bounded by `trans` mm and `rot` rad.
+SubstepRequest request(const Model& m, const Vec6& target, double trans, double rot) {
+  SubstepRequest req;
+  req.target = target;
+  req.G.setZero();
+  req.G.diagonal() << m.defaults.gains.k_trans, m.defaults.gains.k_trans, m.defaults.gains.k_trans,
+      m.defaults.gains.k_rot, m.defaults.gains.k_rot, m.defaults.gains.k_rot;
+  req.trans_bound = trans;
+  req.rot_bound = rot;
+  return req;
+}
+
+// In free space the sub-step moves toward the target by at most its bounds, exactly onto them when
+// the target lies beyond (then it has not reached it), all the way when within.
+TEST(Substep, BoundedByItsTrustRegion) {
+  const Model m = rigid_slab();
+  State state(m, probe_at(Vec3(0, 0, 10)));
+  StateImpl& s = state.impl();
+  const Pose g0 = probe_at(Vec3(0, 0, 10));
+  Vec6 far;
+  far << 3.0, -4.0, 0.0, 0.0, 0.0, 0.0;  // 5 mm
+  StepTrace trace;
+  bool reached = true;
+  const Pose g1 = solve_substep(m, m.defaults, s, g0, request(m, far, 0.1, 0.01), trace, reached);
+  EXPECT_FALSE(reached);
+  EXPECT_NEAR((g1.p - g0.p).norm(), 0.1, 1e-12);
+  EXPECT_NEAR(((g1.p - g0.p) - 0.1 * far.head<3>().normalized()).norm(), 0.0, 1e-12);
+  // A rotation beyond the rotation bound is shortened the same way.
+  Vec6 turn = Vec6::Zero();
+  turn[4] = 0.5;  // rad about y
+  const Pose g2 = solve_substep(m, m.defaults, s, g0, request(m, turn, 0.1, 0.01), trace, reached);
+  EXPECT_FALSE(reached);
+  EXPECT_NEAR(rotation_vector(g2.q * g0.q.conjugate()).norm(), 0.01, 1e-12);
+  // Within the bounds: all the way.
+  Vec6 near = Vec6::Zero();
+  near.x() = 0.05;
+  const Pose g3 = solve_substep(m, m.defaults, s, g0, request(m, near, 0.1, 0.01), trace, reached);
+  EXPECT_TRUE(reached);
+  EXPECT_NEAR((g3.p - g0.p - Vec3(0.05, 0, 0)).norm(), 0.0, 1e-12);
+  EXPECT_EQ(trace.flags, 0u);
+}
+
+// Pulled down into a rigid slab, the tool stops on its surface: the sub-step has reached its
+// (constrained) goal within the bound, with the tip touching and not inside.
+TEST(Substep, StopsOnARigidSurface) {
+  const Model m = rigid_slab();
+  State state(m, probe_at(Vec3(0, 0, 10)));
+  StateImpl& s = state.impl();
+  const Pose g0 = probe_at(Vec3(0.1, 0.05, kTip + 0.05));
+  Vec6 down = Vec6::Zero();
+  down.z() = -1.0;
+  StepTrace trace;
+  bool reached = false;
+  const Pose g1 = solve_substep(m, m.defaults, s, g0, request(m, down, 0.2, 0.01), trace, reached);
+  EXPECT_TRUE(reached);
+  const double gap = test::rigid_clearance(m, g1);
+  EXPECT_GE(gap, -m.settings.rigid_tolerance);
+  EXPECT_LT(gap, 1e-6);
+  EXPECT_GT(s.solution.region_force[0], 0.9) << "the slab carries the pull (1 N/mm x 0.95 mm)";
+  EXPECT_EQ(trace.contacts, s.rows.contacts);
+  EXPECT_EQ(trace.flags, 0u);
+}
+
+// A floor and a wall, and a contact capacity of one pair: the rows hold only the floor's nearest
+// pair, so the tool slides into the wall; the re-check at the solution brings the wall's pair in
+// (forced, measured at the rows' configuration like every other) and the second solve stops at
+// the wall.
+TEST(Substep, ReCheckBringsInThePairsTheRowsMissed) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -3.0;
+  spec.x1 = spec.y1 = 3.0;
+  const auto floor = test::slab(spec, [](const Vec3&) { return 0; });
+  const auto wall = low_wall();
+  Model m = test::model(
+      {test::object("floor", floor, ObjectKind::Rigid), test::object("wall", wall, ObjectKind::Rigid)},
+      {test::enamel()});
+  m.capacities.contacts = 1;
+  State state(m, probe_at(Vec3(0, 0, 10)));
+  StateImpl& s = state.impl();
+  const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.001));
+  Vec6 target = Vec6::Zero();
+  target.x() = 1.0;
+  target.z() = -0.2;
+  StepTrace trace;
+  bool reached = false;
+  const Pose g1 = solve_substep(m, m.defaults, s, g0, request(m, target, 1.0, 0.02), trace, reached);
+  EXPECT_TRUE(trace.flags & kFlagContactOverflow);
+  EXPECT_GE(test::rigid_clearance(m, g1), -m.settings.rigid_tolerance);
+  int forced_on_wall = 0;
+  for (int i = 0; i < s.pairs.count; ++i) {
+    if (!s.pairs.refs[i].forced) continue;
+    forced_on_wall += s.pairs.refs[i].object == 1;
+    const PairGeometry at_rows = measure_pair(m, s.constants, s.pairs.at, s.pairs.refs[i]);
+    EXPECT_EQ(s.pairs.geometry[i].gap, at_rows.gap);
+    EXPECT_EQ(s.pairs.geometry[i].normal, at_rows.normal);
+  }
+  EXPECT_GE(forced_on_wall, 1);
+  EXPECT_EQ(s.pairs.at.p, g0.p);
+  EXPECT_LT(g1.p.x(), 0.4) << "stopped at the wall";
+}
+
+// Without a re-check pass to spare, the overlap the rows missed is backtracked: the step is shortened
+// until the tool is clear, and flagged.
+TEST(Substep, BacktracksWhatTheReCheckCannotFix) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -3.0;
+  spec.x1 = spec.y1 = 3.0;
+  const auto floor = test::slab(spec, [](const Vec3&) { return 0; });
+  const auto wall = low_wall();
+  Model m = test::model(
+      {test::object("floor", floor, ObjectKind::Rigid), test::object("wall", wall, ObjectKind::Rigid)},
+      {test::enamel()});
+  m.capacities.contacts = 1;
+  m.settings.max_rechecks = -1;  // one pass: no second solve with the re-check's pairs
+  State state(m, probe_at(Vec3(0, 0, 10)));
+  StateImpl& s = state.impl();
+  const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.001));
+  Vec6 target = Vec6::Zero();
+  target.x() = 1.0;
+  StepTrace trace;
+  bool reached = false;
+  const Pose g1 = solve_substep(m, m.defaults, s, g0, request(m, target, 1.0, 0.02), trace, reached);
+  EXPECT_TRUE(trace.flags & kFlagBacktracked);
+  const double gap = test::rigid_clearance(m, g1);
+  EXPECT_GE(gap, -m.settings.rigid_tolerance);
+  EXPECT_GT(g1.p.x(), 0.1) << "shortened, not dropped: the tool went as far as it could";
+}
+
+// The sliding state's budget: a hand 5 mm into a rigid slab is followed by at most max_substeps
+// sub-steps of doubling bounds (from 0.01 mm up to the trust step) in one cycle; the tool lags, says
+// so, uses most of its budget, and never enters the slab.
+TEST(Substep, SlidingBudgetLagsBehindAFarHand) {
+  const Model m = rigid_slab();
+  const Vec3 start(0, 0, kTip + 0.3);
+  State s(m, probe_at(start));
+  const StepOutput out = step(m, s, HapticInput{probe_at(Vec3(2.0, 0, -5.0)), 0.001});
+  EXPECT_TRUE(out.flags & kFlagLagging);
+  EXPECT_EQ(out.substeps, m.settings.max_substeps);
+  double budget = 0.0, bound = 0.01;
+  for (int k = 0; k < m.settings.max_substeps; ++k, bound = std::min(2.0 * bound, m.settings.trust_step))
+    budget += bound;
+  const double moved = (out.graphic.p - start).norm();
+  EXPECT_LE(moved, budget + 1e-12);
+  EXPECT_GT(moved, 0.5 * budget);
+  EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance);
+  // A hand within reach is followed within the cycle.
+  const StepOutput near = step(m, s, HapticInput{probe_at(out.graphic.p + Vec3(0, 0, -0.02)), 0.001});
+  EXPECT_FALSE(near.flags & kFlagLagging);
+  EXPECT_LT(near.substeps, m.settings.max_substeps);
+}
+
+}  // namespace
+}  // namespace cariesim
