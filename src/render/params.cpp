@@ -57,6 +57,7 @@ void set_field(Material& m, const ParamChange& change, const Material& preset) {
       m.k_e = preset.k_e;
       m.stiffness = preset.stiffness;
       m.k_c = preset.k_c;
+      m.crush_length = preset.crush_length;
       m.f_p_star = preset.f_p_star;
       m.f_e_star = preset.f_e_star;
       break;
@@ -82,6 +83,8 @@ ParamProblem check_material(const Material& m) {
   if (!stiffness_ok(m.k_theta)) return {"k_theta", "must be in (0, 1e6] N·mm/rad"};
   if (!threshold_ok(m.f_p_star)) return {"f_p_star", "must be in [0, 1000] N"};
   if (!threshold_ok(m.f_e_star)) return {"f_e_star", "must be in [0, 1000] N"};
+  if (!(std::isfinite(m.crush_length) && m.crush_length > 0.0 && m.crush_length <= 100.0))
+    return {"crush_length", "must be in (0, 100] mm"};
   const KcProfile& k = m.k_c;
   if (k.layer_count < 1 || k.layer_count > KcProfile::kMaxLayers) return {"k_c", "must have 1 to 4 layers"};
   const int used = k.kind == KcProfile::Kind::Gradient ? 2

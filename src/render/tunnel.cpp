@@ -9,15 +9,21 @@
 // inequality that moves down as the lesion is opened, and the tissue holds the tip where it is (a
 // second inequality) until the pull exceeds F_e* (eq. 9). Additional contacts of the whole tool with
 // every other object are the usual contact rows.
-// Depth growth (eq. 5): Δ = |F_p| / k_c per 1 ms cycle while |F_p| > F_p*, scaled by Δt / 1 ms so the
-// behaviour does not depend on the servo rate, and never carrying the tip past the point where the
-// criterion stops holding within the same cycle. Extraction mirrors it (eqs. 8-9): the probe stays
-// until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state returns to
-// sliding and the force drops.
+// Depth growth, our reading of eq. 5 (docs/penetration.md): F_p* is the breakthrough threshold; once
+// inside, the decayed tissue ahead of the tip resists with R(d) = k_c(d)·crush_length at apex depth d,
+// and the tip advances while |F_p| > R(d), each cycle to where |F_p| = R(d) (quasi-static, so the
+// servo rate does not matter). The felt axial force while inserting is therefore k_c(d)·crush_length
+// (times k_p/k_e, eq. 6): it follows a layered or graded k_c (Fig. 6) and tells mild from severe
+// caries at any hand speed. Eq. 5's own increment, |F_p|/k_c per 1 ms cycle (scaled by Δt / 1 ms),
+// bounds the advance per cycle, and so does max_give_speed: a resistance below F_p* (a breakthrough)
+// plays over several cycles instead of as one knock. Extraction mirrors the paper (eqs. 8-9): the
+// probe stays until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state
+// returns to sliding and the force drops.
 // The tunnel row builder owns the tunnel rows' key space (tunnel_key).
 #include <algorithm>
 #include <cmath>
 
+#include "cariesim/render/step.hpp"
 #include "render/state_impl.hpp"
 
 namespace cariesim::detail {
@@ -138,14 +144,18 @@ TunnelLimits tunnel_limits(const Model& m, const Params& p, StateImpl& s, const 
     s.interaction = InteractionState::Inserting;
 
   TunnelLimits out{&t, t.depth, t.depth};
-  if (s.interaction == InteractionState::Inserting && f_p > mat.f_p_star) {
-    // Eq. 5, rate independent; one cycle never overshoots |F_p| = F_p*.
-    double delta = f_p / mat.k_c.at(apex_depth) * scale;
-    delta = std::min(delta, along - mat.f_p_star / mat.k_e);
+  const double k_c = mat.k_c.at(apex_depth);
+  const double resistance = insertion_resistance(mat, apex_depth);
+  if (s.interaction == InteractionState::Inserting && f_p > resistance) {
+    // Advance to where |F_p| = R(d), bounded by eq. 5's increment (rate independent) and the give
+    // speed.
+    double delta = along - resistance / mat.k_e;
+    delta = std::min(delta, f_p / k_c * scale);
+    delta = std::min(delta, m.settings.max_give_speed * dt);
     out.upper = std::min(t.depth + std::max(delta, 0.0), std::max(t.depth, t.max_depth));
   } else if (s.interaction == InteractionState::Extracting && f_e > mat.f_e_star) {
     // Eqs. 8-9: beyond F_e* the probe slides out, the tunnel shortening behind it.
-    double delta = f_e / mat.k_c.at(apex_depth) * scale;
+    double delta = f_e / k_c * scale;
     delta = std::min(delta, -along - mat.f_e_star / mat.k_e);
     out.lower = std::max(t.depth - std::max(delta, 0.0), 0.0);
   }
@@ -207,3 +217,11 @@ void tunnel_spheres(const Model& m, const StateImpl& s, TunnelSpheres& out) {
 }
 
 }  // namespace cariesim::detail
+
+namespace cariesim {
+
+double insertion_resistance(const Material& caries, double apex_depth) {
+  return caries.k_c.at(apex_depth) * caries.crush_length;
+}
+
+}  // namespace cariesim

@@ -370,7 +370,8 @@ KcProfile read_kc(const Reader& r, const YAML::Node& node, const std::string& pa
 void read_lesion_material(const Reader& r, const YAML::Node& node, const std::string& path, LesionDesc& l) {
   const Fields f(
       r, node, path,
-      {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "f_p_star", "f_e_star", "k_theta"});
+      {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "crush_length", "f_p_star", "f_e_star",
+       "k_theta"});
   Material& m = l.material;
   // The sliding contact stiffness is its own parameter (see caries_preset): k_e does not change it.
   f.positive("k_e", m.k_e, kMaxStiffness, "N/mm");
@@ -385,6 +386,7 @@ void read_lesion_material(const Reader& r, const YAML::Node& node, const std::st
     m.mu_d_along = r.number_in(a.require("mu_d"), a.sub("mu_d"), 0.0, kMaxFriction, "");
   }
   if (const auto n = f.get("k_c"); n.IsDefined()) m.k_c = read_kc(r, n, f.sub("k_c"), l.shape.depth);
+  f.positive("crush_length", m.crush_length, 100.0, "mm");
   f.positive("f_p_star", m.f_p_star, kMaxThreshold, "N");
   f.positive("f_e_star", m.f_e_star, kMaxThreshold, "N");
   f.positive("k_theta", m.k_theta, kMaxStiffness, "N·mm/rad");

@@ -51,6 +51,7 @@ void set_material(YAML::Node lesion, const Material& m) {
   mat["mu_s"] = number(m.mu_s);
   mat["mu_d"] = number(m.mu_d);
   mat["k_c"] = kc_node(m.k_c);
+  mat["crush_length"] = number(m.crush_length);
   mat["f_p_star"] = number(m.f_p_star);
   mat["f_e_star"] = number(m.f_e_star);
   mat["k_theta"] = number(m.k_theta);

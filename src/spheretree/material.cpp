@@ -67,6 +67,7 @@ Material caries_preset(CariesPreset preset) {
   m.stiffness = mild ? 30.0 : 4.0;  // N/mm
   m.k_c.kind = KcProfile::Kind::Constant;
   m.k_c.values.fill(mild ? 0.58 : 0.20);
+  m.crush_length = 3.0;  // mm: resistance k_c·3 mm = 1.74 N mild, 0.60 N severe (below F_p*)
   m.f_p_star = mild ? 2.0 : 0.8;
   m.f_e_star = mild ? 1.0 : 0.5;
   return m;

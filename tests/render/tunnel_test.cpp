@@ -126,32 +126,44 @@ TEST(TunnelRows, KindsAndKeys) {
   EXPECT_NEAR(rows.problem.rows[6].b, 0.1 - 0.2, 1e-15);
 }
 
-// Eq. 5 per cycle, scaled by dt / 1 ms, never past the point where |F_p| falls to F_p*; below F_p*
-// the bottom stays.
-TEST(TunnelLimits, DepthGrowsByEquation5) {
+// Inside the lesion the tip advances while |F_p| exceeds the tissue's resistance R = k_c·crush_length
+// (docs/penetration.md), to where |F_p| = R, by at most eq. 5's |F_p|/k_c per 1 ms (scaled by dt)
+// and the give speed; below R the bottom stays.
+TEST(TunnelLimits, DepthGrowsToTheResistance) {
   const Model m = lesion_model();
   const Params& p = m.defaults;
   const Material& mat = p.materials[0];
+  const double resistance = insertion_resistance(mat, 0.3);
+  ASSERT_NEAR(resistance, 10.0 * mat.crush_length, 1e-12);
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
   s.tunnel = straight_down(0.3);
   s.graphic = probe_at(Vec3(0, 0, -0.3));
   s.interaction = InteractionState::Inserting;
+  int advanced = 0, held = 0;
   for (const double dt : {0.001, 0.00025}) {
-    for (const double along : {2.0, 3.5, 4.0, 8.0}) {  // mm of hand below the graphic tip
+    for (const double along : {1.5, 2.001, 2.01, 2.05, 4.0, 8.0}) {  // mm of hand below the graphic tip
       const TunnelLimits l = tunnel_limits(m, p, s, probe_at(Vec3(0, 0, -0.3 - along)), dt);
       const double f_p = mat.k_e * along;
       double expected = 0.3;
-      if (f_p > mat.f_p_star)
-        expected += std::min(f_p / mat.k_c.at(s.tunnel.depth0 + 0.3) * dt / m.settings.reference_dt,
-                             along - mat.f_p_star / mat.k_e);
+      if (f_p > resistance) {
+        expected += std::min({along - resistance / mat.k_e,
+                              f_p / mat.k_c.at(s.tunnel.depth0 + 0.3) * dt / m.settings.reference_dt,
+                              m.settings.max_give_speed * dt});
+        ++advanced;
+      } else {
+        ++held;
+      }
       EXPECT_NEAR(l.upper, expected, 1e-12) << along << " mm at dt " << dt;
       EXPECT_EQ(l.lower, 0.3);
       EXPECT_EQ(l.tunnel, &s.tunnel);
       EXPECT_EQ(s.interaction, InteractionState::Inserting);
     }
   }
+  EXPECT_GT(advanced, 4);
+  EXPECT_GT(held, 1);
   // The lesion's bottom is a hard stop.
+  s.tunnel.depth = s.tunnel.max_depth - 0.01;
   const TunnelLimits deep = tunnel_limits(m, p, s, probe_at(Vec3(0, 0, -0.3 - 500.0)), 0.001);
   EXPECT_EQ(deep.upper, s.tunnel.max_depth);
 }

@@ -31,4 +31,26 @@ a2.legend(fontsize=8)
 f.suptitle("Fig. 14: insertion and extraction with an additional contact")
 f.tight_layout()
 f.savefig(os.path.join(d, "fig14_insertion.png"), dpi=120)
-open(os.path.join(d, "figures_insertion.txt"), "w").write("fig14_insertion.png\n")
+
+# The k_c sweep (docs/penetration.md): felt axial force against apex depth at 2 mm/s.
+figures = ["fig14_insertion.png"]
+sweep = os.path.join(d, "kc_sweep.csv")
+if os.path.exists(sweep):
+    runs = {}
+    for r in csv.DictReader(open(sweep)):
+        runs.setdefault(r["name"], ([], []))
+        runs[r["name"]][0].append(float(r["depth"]))
+        runs[r["name"]][1].append(float(r["f_axial"]))
+    f, ax = plt.subplots(figsize=(8, 5))
+    for name, (depth, force) in runs.items():
+        style = "--" if "preset" in name else "-"
+        ax.plot(depth, force, style, lw=1.2, label=name)
+    ax.set_xlabel("apex depth in the lesion (mm)")
+    ax.set_ylabel("felt axial force (N)")
+    ax.set_title("Insertion at 2 mm/s: force against depth (k_c sweep, presets, layers, gradient)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    f.tight_layout()
+    f.savefig(os.path.join(d, "kc_sweep.png"), dpi=120)
+    figures.append("kc_sweep.png")
+open(os.path.join(d, "figures_insertion.txt"), "w").write("".join(x + "\n" for x in figures))

@@ -20,33 +20,36 @@ namespace cariesim {
 
 /// A lesion as the engine needs it: where its caries tree is, its host tooth, its parameters.
 struct LesionModel {
-  std::string name;            ///< e.g. "lesion1"
-  int16_t object = -1;         ///< index of its caries tree in Model::objects
-  int16_t host = -1;           ///< index of the healthy tree of the same tooth
-  uint16_t material = 0;       ///< index of its (top-layer) material in Model::materials
-  LesionShape shape;           ///< authored shape, world coordinates
-  double authored_depth = 0.0; ///< mm, depth below the surface at the shape's centre
-  std::string severity;        ///< "mild", "severe" or "" (authoring label)
+  std::string name;             ///< e.g. "lesion1"
+  int16_t object = -1;          ///< index of its caries tree in Model::objects
+  int16_t host = -1;            ///< index of the healthy tree of the same tooth
+  uint16_t material = 0;        ///< index of its (top-layer) material in Model::materials
+  LesionShape shape;            ///< authored shape, world coordinates
+  double authored_depth = 0.0;  ///< mm, depth below the surface at the shape's centre
+  std::string severity;         ///< "mild", "severe" or "" (authoring label)
 };
 
 /// The haptic tool.
 struct ToolModel {
   ExplorerParams params;
-  SphereTree tree;             ///< tool frame; leaf 0 is the tip sphere
-  TriangleMesh display;        ///< tool frame
-  double tip_radius = 0.05;    ///< mm
+  SphereTree tree;           ///< tool frame; leaf 0 is the tip sphere
+  TriangleMesh display;      ///< tool frame
+  double tip_radius = 0.05;  ///< mm
 };
 
 /// Numerical settings of the step.
 struct StepSettings {
-  double trust_step = 0.1;          ///< mm, largest tool-leaf motion per sub-step (trust region)
-  double trust_rotation = 0.02;     ///< rad, largest rotation per sub-step
-  int max_substeps = 6;             ///< per step; the graphic tool lags behind beyond that
-  int max_rechecks = 3;             ///< collision re-checks at the solution per sub-step
-  double rigid_tolerance = 0.005;   ///< mm, allowed overlap with rigid leaves at the end of a step
-  double max_jump = 20.0;           ///< mm, a larger haptic jump in one step is flagged and limited
-  double contact_margin = 0.02;     ///< mm, extra margin when collecting contacts
-  double reference_dt = 0.001;      ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
+  double trust_step = 0.1;         ///< mm, largest tool-leaf motion per sub-step (trust region)
+  double trust_rotation = 0.02;    ///< rad, largest rotation per sub-step
+  int max_substeps = 6;            ///< per step; the graphic tool lags behind beyond that
+  int max_rechecks = 3;            ///< collision re-checks at the solution per sub-step
+  double rigid_tolerance = 0.005;  ///< mm, allowed overlap with rigid leaves at the end of a step
+  double max_jump = 20.0;          ///< mm, a larger haptic jump in one step is flagged and limited
+  double contact_margin = 0.02;    ///< mm, extra margin when collecting contacts
+  double reference_dt = 0.001;     ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
+  /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
+  /// plays over several cycles instead of one force step (docs/penetration.md)
+  double max_give_speed = 40.0;
 };
 
 /// Capacities fixed at build time (scratch memory is reserved then).
@@ -57,10 +60,10 @@ struct Capacities {
 /// Cold, display-only data of one scene object.
 struct DisplayPart {
   std::string name;
-  TriangleMesh mesh;   ///< world coordinates
+  TriangleMesh mesh;  ///< world coordinates
   Tissue tissue = Tissue::Generic;
-  int16_t lesion = -1; ///< the lesion a caries part shows, else -1
-  int16_t object = -1; ///< its collision object
+  int16_t lesion = -1;  ///< the lesion a caries part shows, else -1
+  int16_t object = -1;  ///< its collision object
 };
 
 struct Model {

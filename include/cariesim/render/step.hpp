@@ -17,6 +17,10 @@ namespace cariesim {
 enum class InteractionState : uint8_t { Free, Sliding, Inserting, Extracting };
 const char* state_name(InteractionState s);
 
+/// N, the axial force (|F_p| of eqs. 3-4) the decayed tissue resists the tip's advance with at apex
+/// depth `apex_depth` (mm): k_c(depth)·crush_length, our reading of eq. 5 (docs/penetration.md).
+double insertion_resistance(const Material& caries, double apex_depth);
+
 /// Output flags.
 enum StepFlag : uint32_t {
   kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf; the last good one was used
@@ -35,9 +39,9 @@ enum StepFlag : uint32_t {
 
 /// One contact as reported to the viewer / logs (the strongest few).
 struct ContactReport {
-  Vec3 point;     ///< mm, world
-  Vec3 normal;    ///< unit, world (out of the object)
-  double force;   ///< N, normal force magnitude
+  Vec3 point;    ///< mm, world
+  Vec3 normal;   ///< unit, world (out of the object)
+  double force;  ///< N, normal force magnitude
   uint16_t object;
   uint16_t tool_leaf;
 };
@@ -55,24 +59,24 @@ struct TunnelSpheres {
 };
 
 struct HapticInput {
-  Pose pose;           ///< the haptic tool (device) pose, tool frame in world
-  double dt = 0.001;   ///< s, servo period
+  Pose pose;          ///< the haptic tool (device) pose, tool frame in world
+  double dt = 0.001;  ///< s, servo period
 };
 
 struct StepOutput {
-  Pose graphic;                   ///< the constrained proxy
-  Pose haptic;                    ///< the (sanitised) haptic pose used
-  Vec3 force = Vec3::Zero();      ///< N, to render on the device, at the tool-frame origin
-  Vec3 torque = Vec3::Zero();     ///< N·mm, to render on the device, about the tool-frame origin
+  Pose graphic;                ///< the constrained proxy
+  Pose haptic;                 ///< the (sanitised) haptic pose used
+  Vec3 force = Vec3::Zero();   ///< N, to render on the device, at the tool-frame origin
+  Vec3 torque = Vec3::Zero();  ///< N·mm, to render on the device, about the tool-frame origin
   InteractionState state = InteractionState::Free;
-  double depth = 0.0;             ///< mm, insertion depth along the tunnel axis
-  int lesion = -1;                ///< lesion being probed (penetration) or touched by the tip
-  int contacts = 0;               ///< constraint rows from sphere pairs in the final solve
-  uint32_t flags = 0;             ///< StepFlag bits
-  double normal_force = 0.0;      ///< N, total normal contact force (Fig. 16)
-  double soft_tissue_force = 0.0; ///< N, largest normal force on gingiva/tongue (damage events)
-  int tip_tissue = -1;            ///< Tissue of the tip's contact, -1 when the tip touches nothing
-  double step_us = 0.0;           ///< µs, wall time of this step
+  double depth = 0.0;              ///< mm, insertion depth along the tunnel axis
+  int lesion = -1;                 ///< lesion being probed (penetration) or touched by the tip
+  int contacts = 0;                ///< constraint rows from sphere pairs in the final solve
+  uint32_t flags = 0;              ///< StepFlag bits
+  double normal_force = 0.0;       ///< N, total normal contact force (Fig. 16)
+  double soft_tissue_force = 0.0;  ///< N, largest normal force on gingiva/tongue (damage events)
+  int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
+  double step_us = 0.0;            ///< µs, wall time of this step
   int substeps = 0;                ///< sub-steps taken (trust region, DESIGN.md §4 step 3)
   int slips = 0;                   ///< friction anchors that slipped this step (saw-tooth events)
   std::array<ContactReport, kMaxReportedContacts> contact_reports{};

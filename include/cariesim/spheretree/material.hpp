@@ -46,12 +46,16 @@ struct Material {
   double mu_s_along = 0.0;
   double mu_d_along = 0.0;
   // Caries only (lesion materials):
-  double k_e = 0.5;       ///< N/mm, contact stiffness in eqs. 4 and 8
-  KcProfile k_c;          ///< N/mm, penetration stiffness over depth, eq. 5
-  double f_p_star = 3.0;  ///< N, insertion threshold F_p*, eq. 5
-  double f_e_star = 1.0;  ///< N, extraction threshold F_e*, eq. 9
-  double k_theta = 100.0; ///< N·mm/rad, rotational stiffness of the tunnel, eq. 7
-  int16_t lesion = -1;    ///< index of the lesion this material belongs to, -1 for none
+  double k_e = 0.5;  ///< N/mm, contact stiffness in eqs. 4 and 8
+  KcProfile k_c;     ///< N/mm, penetration stiffness over depth, eq. 5
+  /// mm, crush length: the tissue ahead of the tip resists its advance with k_c(depth)·crush_length
+  /// (docs/penetration.md; our reading of eq. 5, which makes k_c felt at a hand's speed).
+  /// The base (k_c 10 N/mm) resists with 2 N, below its F_p* of 3 N; the presets use 3 mm.
+  double crush_length = 0.2;
+  double f_p_star = 3.0;   ///< N, insertion threshold F_p*, eq. 5
+  double f_e_star = 1.0;   ///< N, extraction threshold F_e*, eq. 9
+  double k_theta = 100.0;  ///< N·mm/rad, rotational stiffness of the tunnel, eq. 7
+  int16_t lesion = -1;     ///< index of the lesion this material belongs to, -1 for none
 
   [[nodiscard]] bool rigid() const { return !(stiffness < std::numeric_limits<double>::infinity()); }
   [[nodiscard]] bool frictional() const { return mu_s > 0.0 || mu_s_along > 0.0; }
