@@ -54,7 +54,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
   };
   summary.field("experiment", "boundary").field("paper", "Fig. 12, §4.2.1").field("border_x_mm", border);
   summary.field("press_depth_mm", kPressDepth).field("speed_mm_s", kSpeed).key("runs").begin_array();
-  double rigid_overlap = 0.0;
+  RunChecks checks;
   for (const Run& run : runs) {
     // Stiffness of the healthy region and of the caries for this run.
     Params params = model.defaults;
@@ -71,7 +71,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
     path.to(std::abs(x1 - x0) / kSpeed, at(Vec3(x1, c.y(), press_z), q));
     path.to(0.5, at(Vec3(x1, c.y(), c.z() + 2.0), q));
     const std::vector<SimSample> samples = simulate(model, params, path.trajectory(), options.rate_hz);
-    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
+    checks.add(model, samples);
 
     // Tangential force before and after the border, by the haptic tool's travel; hooking.
     double before = 0.0, after = 0.0;
@@ -114,7 +114,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
         .end_object();
   }
   summary.end_array();
-  summary.field("max_rigid_penetration_mm", rigid_overlap);
+  checks.write(summary);
 }
 
 }  // namespace cariesim::experiment

@@ -68,4 +68,23 @@ double max_rigid_penetration(const Model& model, const std::vector<SimSample>& s
   return worst;
 }
 
+double max_force_step(const std::vector<SimSample>& samples) {
+  double worst = 0.0;
+  for (std::size_t i = 1; i < samples.size(); ++i) {
+    if (samples[i - 1].out.state == InteractionState::Free) continue;
+    worst = std::max(worst, (samples[i].out.force - samples[i - 1].out.force).norm());
+  }
+  return worst;
+}
+
+void RunChecks::add(const Model& model, const std::vector<SimSample>& samples) {
+  rigid_penetration = std::max(rigid_penetration, max_rigid_penetration(model, samples));
+  force_step = std::max(force_step, max_force_step(samples));
+}
+
+void RunChecks::write(JsonWriter& summary) const {
+  summary.field("max_rigid_penetration_mm", rigid_penetration);
+  summary.field("max_force_step_N", force_step);
+}
+
 }  // namespace cariesim::experiment

@@ -41,6 +41,21 @@ void write_text(const std::filesystem::path& file, std::string_view text);
 /// engine promises at most the rigid tolerance (0.01 mm) after every step (issue #3 acceptance).
 double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples);
 
+/// Largest change of the rendered force (N) between two consecutive steps of a run, leaving out the
+/// steps out of free space (a first touch may start at once); issue #10 asks for at most 1 N per 1 ms.
+double max_force_step(const std::vector<SimSample>& samples);
+
+/// What every experiment reports over all its runs (summary.json): the deepest overlap with rigid
+/// tissue and the largest step-to-step force change.
+struct RunChecks {
+  double rigid_penetration = 0.0;  ///< mm
+  double force_step = 0.0;         ///< N per servo step
+  /// Takes one run into account.
+  void add(const Model& model, const std::vector<SimSample>& samples);
+  /// Writes max_rigid_penetration_mm and max_force_step_N.
+  void write(JsonWriter& summary) const;
+};
+
 /// Progress line on stderr unless quiet.
 void say(const ExperimentOptions& options, const std::string& line);
 

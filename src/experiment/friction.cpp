@@ -47,7 +47,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
                       {"dynamic", 0.5, 0.1}, {"dynamic", 0.5, 0.2}, {"dynamic", 0.5, 0.3}, {"dynamic", 0.5, 0.4}};
   summary.field("experiment", "friction").field("paper", "Figs. 9-11").field("press_depth_mm", kPressDepth);
   summary.field("slide_speed_mm_s", kSlideSpeed).key("runs").begin_array();
-  double rigid_overlap = 0.0;
+  RunChecks checks;
   for (const Run& run : runs) {
     // The carious top's materials get this run's coefficients.
     Params params = model.defaults;
@@ -57,7 +57,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
       m.mu_d = run.mu_d;
     }
     const std::vector<SimSample> samples = simulate(model, params, path.trajectory(), options.rate_hz);
-    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
+    checks.add(model, samples);
 
     // The signal: F_x over the slide, the slip events (saw-tooth drops).
     const double t0 = slide_start + kSettle, t1 = slide_end;
@@ -88,7 +88,7 @@ void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
   }
   summary.end_array();
   summary.field("measured_from_s", slide_start + kSettle).field("measured_to_s", slide_end);
-  summary.field("max_rigid_penetration_mm", rigid_overlap);
+  checks.write(summary);
 }
 
 }  // namespace cariesim::experiment

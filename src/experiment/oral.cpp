@@ -147,7 +147,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
   summary.field("experiment", "oral").field("paper", "Figs. 15-16, §5.3").key("lesions").begin_array();
   double state_force[4] = {0, 0, 0, 0};
   int state_count[4] = {0, 0, 0, 0};
-  double rigid_overlap = 0.0;
+  RunChecks checks;
   for (std::size_t l = 0; l < model.lesions.size(); ++l) {
     const LesionModel& lesion = model.lesions[l];
     const Material& mat = model.defaults.materials[lesion.material];
@@ -155,7 +155,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
     const Posture posture = best_posture(model, lesion);
     const Trajectory trajectory = probe_trajectory(model, lesion, posture.q, &push_start, &push_end);
     const std::vector<SimSample> samples = simulate(model, trajectory, options.rate_hz);
-    rigid_overlap = std::max(rigid_overlap, max_rigid_penetration(model, samples));
+    checks.add(model, samples);
 
     // Deepest insertion into this lesion; force by state; the entry's insertion force.
     double max_depth = 0.0, max_insertion = 0.0, entry_time = -1.0, first_contact = -1.0;
@@ -200,7 +200,7 @@ void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
         .end_object();
   }
   summary.end_array();
-  summary.field("max_rigid_penetration_mm", rigid_overlap);
+  checks.write(summary);
   summary.key("mean_normal_force_by_state").begin_object();
   const char* names[] = {"free", "sliding", "inserting", "extracting"};
   for (int i = 0; i < 4; ++i) summary.field(names[i], state_count[i] ? state_force[i] / state_count[i] : 0.0);

@@ -23,6 +23,10 @@ namespace {
 
 constexpr double kMinNormalForce = 1e-6;     // N: below this a contact carries no friction
 constexpr double kRigidSlipStiffness = 1e3;  // N/mm: a rigid row's share of the slip stiffness
+// mm: a sticking tool point sits on its anchor (its rows hold it there); one this far from it in the
+// tangent plane is no longer held by friction (the tool was carried off, e.g. while lagging) and
+// releases, so that an anchor can never drag the tool.
+constexpr double kMaxAnchorOffset = 0.5;
 
 int find_region(const RegionSet& regions, const FrictionAnchor& a) {
   for (int r = 0; r < regions.count; ++r) {
@@ -86,6 +90,7 @@ void attach_anchors(const RegionSet& regions, const Pose& g0, Anchors& anchors) 
     const Vec3 x = g0.transform(a.point_local);
     const Vec3& n = regions.regions[r].normal;
     a.anchor -= n * n.dot(a.anchor - x);
+    if ((a.anchor - x).norm() > kMaxAnchorOffset) a.active = false;
   }
 }
 
@@ -116,11 +121,22 @@ void decide_slips(const Params& p, const Anchors& anchors, const RegionSet& regi
                   const Solution& solution, const Pose& g0, const Mat6& G, SlipPlan& plan) {
   plan.changed = 0;
   plan.slipped = 0;
+  // Contradicting rows (e.g. two anchors on one rigid tool that no motion satisfies together): the
+  // multipliers are no forces, so no cone can be judged on them. Every anchor lets go; the tool sticks
+  // again where it ends this cycle.
+  const bool infeasible = (solution.flags & kFlagInfeasible) != 0;
+  // Where the tool would go without its anchors: the solve's unconstrained target.
+  const Pose free_pose = apply_displacement(g0, rows.problem.x_target);
   for (int k = 0; k < kMaxAnchors; ++k) {
     const FrictionAnchor& a = anchors[k];
     plan.action[k] = SlipPlan::Action::Keep;
     const int row0 = rows.anchor_rows[k][0], row1 = rows.anchor_rows[k][1];
     if (!a.active || row0 < 0 || row1 < 0) continue;
+    if (infeasible) {
+      plan.action[k] = SlipPlan::Action::Release;
+      ++plan.changed;
+      continue;
+    }
     const int r = rows.meta[row0].region;
     const Region& reg = regions.regions[r];
     const double f_n = solution.region_force[r];
@@ -157,8 +173,14 @@ void decide_slips(const Params& p, const Anchors& anchors, const RegionSet& regi
       const double along = qr.a.head<3>().dot(dir);
       k_eff += along * along * (qr.compliance > 0.0 ? 1.0 / qr.compliance : kRigidSlipStiffness);
     }
+    // The anchor moves toward where the load pulls it, but never further than the tool point would
+    // go without it (its place at the solve's target, in the tangent plane): friction only resists.
+    Vec3 shift = -(1.0 - scale) * f_t / k_eff;
+    Vec3 reach = free_pose.transform(a.point_local) - a.anchor;
+    reach -= reg.normal * reg.normal.dot(reach);
+    if (shift.norm() > reach.norm()) shift *= reach.norm() / shift.norm();
     plan.action[k] = SlipPlan::Action::Slip;
-    plan.anchor[k] = a.anchor - (1.0 - scale) * f_t / k_eff;
+    plan.anchor[k] = a.anchor + shift;
     ++plan.changed;
     ++plan.slipped;
   }

@@ -61,8 +61,10 @@ Csv read_csv(const fs::path& file) {
     while (std::getline(ss, cell, ',')) {
       char* end = nullptr;
       const double v = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str()) last = cell;
-      else row.push_back(v);
+      if (end == cell.c_str())
+        last = cell;
+      else
+        row.push_back(v);
     }
     csv.rows.push_back(row);
     csv.text.push_back(last);
@@ -101,6 +103,8 @@ TEST(Experiments, FrictionTrendsOfFigs10And11) {
   EXPECT_GE(fx_s[3], 2.0 * fx_s[0]);
   EXPECT_LT(fx_d[3] - fx_d[0], fx_s[3] - fx_s[0]);
   EXPECT_LE(number_after(json, "{", "max_rigid_penetration_mm"), 0.01);
+  // Issue #10: the rendered force never changes by more than 1 N between two 1 ms steps.
+  EXPECT_LE(number_after(json, "{", "max_force_step_N"), 1.0);
   EXPECT_TRUE(fs::exists(o.out / "summary.json"));
   EXPECT_GT(read_csv(o.out / "friction_static_mus0.80_mud0.30.csv").rows.size(), 1000u);
 }
@@ -121,6 +125,8 @@ TEST(Experiments, BoundaryJumpAndHookOfFig12) {
   EXPECT_TRUE(bool_after(json, hook, "hooked"));
   EXPECT_GE(number_after(json, hook, "stiffness_ratio"), 100.0);
   EXPECT_LE(number_after(json, "{", "max_rigid_penetration_mm"), 0.01);
+  // Issue #10: the rendered force never changes by more than 1 N between two 1 ms steps.
+  EXPECT_LE(number_after(json, "{", "max_force_step_N"), 1.0);
 
   // The hooked run: the graphic tip stays at the border while the haptic tool moves on.
   const Csv csv = read_csv(o.out / "boundary_stiff_out_of_soft.csv");
@@ -140,7 +146,8 @@ TEST(Experiments, BoundaryJumpAndHookOfFig12) {
 TEST(Experiments, InsertionPhasesOfFig14) {
   const ExperimentOptions o = options_in("insertion");
   const std::string json = run_experiment("insertion", o);
-  for (const char* phase : {"no_contact", "contact", "insertion", "insertion_with_contact", "extraction", "free"}) {
+  for (const char* phase :
+       {"no_contact", "contact", "insertion", "insertion_with_contact", "extraction", "free"}) {
     const std::string anchor = std::string("\"name\":\"") + phase + "\"";
     EXPECT_GE(number_after(json, anchor, "t_end"), number_after(json, anchor, "t_start")) << phase;
     EXPECT_GE(number_after(json, anchor, "t_start"), 0.0) << phase << " never happened";
@@ -150,7 +157,17 @@ TEST(Experiments, InsertionPhasesOfFig14) {
   EXPECT_LE(number_after(json, "{", "max_tip_axis_deviation_mm"), 0.01);
   EXPECT_GE(number_after(json, "{", "min_healthy_clearance_mm"), -0.01);
   EXPECT_LE(number_after(json, "{", "max_rigid_penetration_mm"), 0.01);
+  // Issue #10: the rendered force never changes by more than 1 N between two 1 ms steps.
+  EXPECT_LE(number_after(json, "{", "max_force_step_N"), 1.0);
   const double f_p_star = number_after(json, "{", "f_p_star"), f_e_star = number_after(json, "{", "f_e_star");
+  // The k_c sweep (docs/penetration.md): k_c is felt at 2 mm/s, the more the firmer.
+  EXPECT_GE(number_after(json, "{", "mild_severe_force_ratio"), 1.25);
+  double last = 0.0;
+  for (const char* run : {"k_c 0.2", "k_c 0.4", "k_c 0.58", "k_c 1", "k_c 1.5"}) {
+    const double f = number_after(json, std::string("\"name\":\"") + run + "\"", "mean_axial_force_N");
+    EXPECT_GT(f, 1.25 * last) << run;
+    last = f;
+  }
 
   const Csv csv = read_csv(o.out / "insertion.csv");
   const int depth = csv.column("depth"), fz = csv.column("f_z"), t = csv.column("t");
@@ -195,13 +212,16 @@ TEST(Experiments, OralLesionsReachTheirAuthoredDepth) {
   const std::string json = run_experiment("oral", o);
   for (const char* name : {"lesion1", "lesion2", "lesion3"}) {
     const std::string anchor = std::string("\"name\":\"") + name + "\"";
-    EXPECT_NEAR(number_after(json, anchor, "max_depth_mm"), number_after(json, anchor, "authored_depth_mm"), 0.1)
+    EXPECT_NEAR(number_after(json, anchor, "max_depth_mm"), number_after(json, anchor, "authored_depth_mm"),
+                0.1)
         << name;
     EXPECT_GE(number_after(json, anchor, "posture_clearance_mm"), 0.0) << name;
     EXPECT_GT(number_after(json, anchor, "time_to_insertion_s"), 0.0) << name;
     EXPECT_GT(number_after(json, anchor, "F_p_threshold_N"), 0.0) << name;
   }
   EXPECT_LE(number_after(json, "{", "max_rigid_penetration_mm"), 0.01);
+  // Issue #10: the rendered force never changes by more than 1 N between two 1 ms steps.
+  EXPECT_LE(number_after(json, "{", "max_force_step_N"), 1.0);
   EXPECT_GT(number_after(json, "mean_normal_force_by_state", "inserting"), 0.0);
   EXPECT_GT(number_after(json, "mean_normal_force_by_state", "sliding"), 0.0);
   EXPECT_EQ(number_after(json, "mean_normal_force_by_state", "free"), 0.0);

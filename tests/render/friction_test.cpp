@@ -86,6 +86,11 @@ TEST(AttachAnchors, LaysAnchorsIntoTheTangentPlaneAndReleasesLostOnes) {
   EXPECT_NEAR((anchors[0].anchor - Vec3(0.2, 0.1, 0.1)).norm(), 0.0, 1e-15);
   EXPECT_FALSE(anchors[1].active);
   EXPECT_FALSE(anchors[2].active) << "farther from the region's tool point than kRegionRadius";
+
+  // An anchor its tool point was carried 0.6 mm away from no longer holds it.
+  anchors[3] = FrictionAnchor{Vec3::Zero(), Vec3(0.6, 0.0, 0.1), 0, -1, true};
+  attach_anchors(regions, g0, anchors);
+  EXPECT_FALSE(anchors[3].active) << "0.6 mm from its tool point";
 }
 
 // Two tangent equality rows per anchor hold the tool point at the anchor: t_j·(dp + dθ × a) =
@@ -173,6 +178,34 @@ TEST(FrictionCone, ReleasesWithoutNormalLoad) {
   EXPECT_EQ(rig.plan.slipped, 0);
   apply_slips(rig.plan, rig.anchors);
   EXPECT_FALSE(rig.anchors[0].active);
+}
+
+// Rows that contradict each other give multipliers that are no forces: every anchor lets go instead
+// of slipping by them (two anchors on one tool once threw each other 110 mm off and dragged it away).
+TEST(FrictionCone, InfeasibleSolveReleasesEveryAnchor) {
+  Rig rig(test::soft(1.0, 0.5, 0.3), Vec3(0.4, 0, 0), 1.0);
+  rig.solve();
+  rig.solution.flags |= kFlagInfeasible;
+  decide_slips(rig.params, rig.anchors, rig.regions, rig.rows, rig.solution, rig.g0, rig.G, rig.plan);
+  EXPECT_EQ(rig.plan.action[0], SlipPlan::Action::Release);
+  EXPECT_EQ(rig.plan.slipped, 0);
+}
+
+// Friction only resists: a slip never moves the anchor further than the tool point would go without
+// it (its place at the solve's target), however large the tangential load.
+TEST(FrictionCone, SlipNeverCarriesTheAnchorPastTheFreeTool) {
+  Rig rig(test::soft(1.0, 0.5, 0.3), Vec3(0.4, 0, 0), 1.0);
+  rig.solve();
+  const int r0 = rig.rows.anchor_rows[0][0], r1 = rig.rows.anchor_rows[0][1];
+  rig.solution.qp.lambda[r0] *= 1000.0;  // a load no coupling explains
+  rig.solution.qp.lambda[r1] *= 1000.0;
+  decide_slips(rig.params, rig.anchors, rig.regions, rig.rows, rig.solution, rig.g0, rig.G, rig.plan);
+  ASSERT_EQ(rig.plan.action[0], SlipPlan::Action::Slip);
+  const Vec3 free_point = apply_displacement(rig.g0, rig.rows.problem.x_target).transform(Vec3::Zero());
+  Vec3 reach = free_point - rig.anchors[0].anchor;
+  reach.z() = 0.0;
+  EXPECT_LE((rig.plan.anchor[0] - rig.anchors[0].anchor).norm(), reach.norm() + 1e-12);
+  EXPECT_NEAR(reach.norm(), 0.4, 1e-9);
 }
 
 // An anisotropic cone: the same pull slips along the material's direction (mu_s_along) and sticks

@@ -73,7 +73,7 @@ struct StepOutput {
   int lesion = -1;                 ///< lesion being probed (penetration) or touched by the tip
   int contacts = 0;                ///< constraint rows from sphere pairs in the final solve
   uint32_t flags = 0;              ///< StepFlag bits
-  double normal_force = 0.0;       ///< N, total normal contact force (Fig. 16)
+  double normal_force = 0.0;       ///< N, net normal contact force, |sum f_r n_r| (Fig. 16)
   double soft_tissue_force = 0.0;  ///< N, largest normal force on gingiva/tongue (damage events)
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;            ///< µs, wall time of this step
