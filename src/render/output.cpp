@@ -47,16 +47,20 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
   out.substeps = trace.substeps;
   out.slips = trace.slips;
 
-  // Contact summaries: the net normal force, soft tissue load, the tip's tissue, the strongest
-  // contacts. The net normal force is what a force sensor on the tool reads of the contacts' normal
-  // loads, sum over regions of f_r n_r: two walls squeezing the tip from opposite sides cancel there,
-  // where a sum of magnitudes reported the squeeze (spikes of 7 N at 0.2 N felt, in a fissure).
+  // The normal force a force sensor on the tool reads: the rendered force's component along the
+  // contacts' net normal (the direction of the sum over contact rows of λ_i n_i). A sum of the rows'
+  // magnitudes reported squeezes and the loads of a lagging sub-step's unreached target instead
+  // (spikes of 7 N at 0.5 N felt, in a fissure).
   Vec3 net_normal = Vec3::Zero();
+  for (int i = 0; i < s.rows.problem.row_count; ++i)
+    if (s.rows.meta[i].kind == RowKind::Contact && s.solution.qp.lambda[i] > 0.0)
+      net_normal += s.solution.qp.lambda[i] * s.rows.problem.rows[i].a.head<3>();
+
+  // Contact summaries: soft tissue load, the tip's tissue, the strongest contacts.
   for (int r = 0; r < s.regions.count; ++r) {
     const Region& reg = s.regions.regions[r];
     const Material& mat = p.materials[reg.material];
     const double normal_force = s.solution.region_force[r];
-    net_normal += normal_force * reg.normal;
     if (mat.tissue == Tissue::Gingiva || mat.tissue == Tissue::Tongue)
       out.soft_tissue_force = std::max(out.soft_tissue_force, normal_force);
     if (reg.tip && (normal_force > 0.0 || reg.gap < 0.0)) out.tip_tissue = static_cast<int>(mat.tissue);
@@ -72,7 +76,9 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
       if (weakest->force < report.force) *weakest = report;
     }
   }
-  out.normal_force = net_normal.allFinite() ? net_normal.norm() : 0.0;
+  const double net = net_normal.norm();
+  out.normal_force =
+      std::isfinite(net) && net > 0.0 && s.regions.count > 0 ? std::abs(force.dot(net_normal)) / net : 0.0;
   if (inside) out.normal_force = std::abs(force.dot(s.tunnel.n));
   tunnel_spheres(m, s, out.tunnel);
 

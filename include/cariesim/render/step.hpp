@@ -69,11 +69,11 @@ struct StepOutput {
   Vec3 force = Vec3::Zero();   ///< N, to render on the device, at the tool-frame origin
   Vec3 torque = Vec3::Zero();  ///< N·mm, to render on the device, about the tool-frame origin
   InteractionState state = InteractionState::Free;
-  double depth = 0.0;              ///< mm, insertion depth along the tunnel axis
-  int lesion = -1;                 ///< lesion being probed (penetration) or touched by the tip
-  int contacts = 0;                ///< constraint rows from sphere pairs in the final solve
-  uint32_t flags = 0;              ///< StepFlag bits
-  double normal_force = 0.0;       ///< N, net normal contact force, |sum f_r n_r| (Fig. 16)
+  double depth = 0.0;         ///< mm, insertion depth along the tunnel axis
+  int lesion = -1;            ///< lesion being probed (penetration) or touched by the tip
+  int contacts = 0;           ///< constraint rows from sphere pairs in the final solve
+  uint32_t flags = 0;         ///< StepFlag bits
+  double normal_force = 0.0;  ///< N, the force along the contacts' net normal (inserted: the axis) (Fig. 16)
   double soft_tissue_force = 0.0;  ///< N, largest normal force on gingiva/tongue (damage events)
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;            ///< µs, wall time of this step
