@@ -27,6 +27,7 @@ struct RunArgs {
   double exit_after = 0.0;  // s of servo time
   bool show_lesions = false;
   bool no_realtime = false;
+  std::string view;  // camera preset; empty: the whole scene framed
 };
 
 int run_simulator(const RunArgs& args) {
@@ -46,6 +47,7 @@ int run_simulator(const RunArgs& args) {
   options.exit_after = args.exit_after;
   options.show_lesions = args.show_lesions;
   options.realtime = !args.no_realtime;
+  options.view = args.view;
   return viewer::run_viewer(options);
 #else
   (void)args;
@@ -75,6 +77,9 @@ void register_run(CLI::App& app, Registry& registry) {
                   "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
       ->needs(exit_after);
   sub->add_flag("--show-lesions", args->show_lesions, "Start with the lesions revealed (hidden by default)");
+  sub->add_option("--view", args->view,
+                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
+      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
   registry.add(sub, [args] { return run_simulator(*args); });
   registry.set_default([args] { return run_simulator(*args); });
