@@ -45,6 +45,7 @@ struct StepSettings {
   int max_rechecks = 3;             ///< collision re-checks at the solution per sub-step
   double rigid_tolerance = 0.005;   ///< mm, allowed overlap with rigid leaves at the end of a step
   double max_jump = 20.0;           ///< mm, a larger haptic jump in one step is flagged and limited
+  double max_jump_rotation = 0.5;   ///< rad, a larger haptic turn in one step is flagged the same way
   double contact_margin = 0.02;     ///< mm, extra margin when collecting contacts
   double reference_dt = 0.001;      ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
 };
