@@ -67,12 +67,12 @@ void register_run(CLI::App& app, Registry& registry) {
                   "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
       ->capture_default_str();
   sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")
-      ->check(CLI::Range(1.0, 10000.0));
+      ->check(finite_range(1.0, 10000.0));
   auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");
   sub->add_flag("--overwrite", args->overwrite, "Replace an existing record file")->needs(record);
   auto* exit_after = sub->add_option("--exit-after", args->exit_after,
                                      "Exit after this many seconds of servo time (automation)")
-                         ->check(CLI::PositiveNumber);
+                         ->check(finite_range(1e-6, 1e9));
   sub->add_option("--screenshot", args->screenshot,
                   "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
       ->needs(exit_after);

@@ -180,7 +180,7 @@ void register_tree(CLI::App& app, Registry& registry) {
       ->check(CLI::IsMember({"tight", "octree"}));
   tree->add_option("--depth", args->depth, "octree depth (levels)")->check(CLI::Range(1, 7));
   tree->add_option("--tolerance", args->tolerance, "tight mode: target surface deviation, mm")
-      ->check(CLI::Range(0.001, 10.0));
+      ->check(finite_range(0.001, 10.0));
   tree->add_option("--samples", args->samples, "surface samples for the deviation, per part")
       ->check(CLI::Range(1000, 10000000));
   tree->add_flag("--json", args->json, "print one JSON object");
