@@ -459,6 +459,22 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
     report(options.progress, "scene",
            static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
   }
+
+  // Seam deviation (on request): every part of the object together against its uncut surface, on a
+  // band around each lesion's border.
+  if (options.measure_deviation && !b.lesions.empty()) {
+    make_level_sets(b);
+    std::vector<const SphereTree*> trees;
+    for (std::size_t k = 0; k <= b.lesions.size(); ++k)
+      trees.push_back(&model.objects[static_cast<std::size_t>(healthy_index) + k].tree);
+    const std::size_t first_report = out.parts.size() - b.lesions.size();
+    for (std::size_t k = 0; k < b.lesions.size(); ++k) {
+      const LesionShape& shape = b.shapes[k];
+      out.parts[first_report + k].seam_deviation = measure_seam_deviation(
+          trees, b.world_mesh(), *b.object_ls, [&shape](const Vec3& x) { return shape.distance(x); },
+          kSeamBandHalfWidth, options.deviation_samples);
+    }
+  }
 }
 
 // The tool's home: as given, else above the scene's highest point with the tip lowest. It must be free.

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,17 @@ struct Deviation {
 /// cariesim::Error for an empty tree or surface.
 Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface, const LevelSet& shape,
                             std::size_t samples = 100000, uint64_t seed = 1);
+
+/// Deviation across a lesion's border (issue #10): the union of the leaves of every part of one
+/// object (`parts`: healthy and caries trees) against the object's uncut `surface`, on the band where
+/// |border(x)| <= `half_width_mm` (mm; `border` is the lesion's signed distance, so the band runs
+/// `half_width_mm` each side of the border along the surface); poke-outs beyond `shape` (the object's
+/// level set) of the leaves whose poking cap (around the apex toward the nearest surface) reaches the
+/// band. About `samples` band samples (seeded). Throws
+/// cariesim::Error for an empty part, surface or band.
+Deviation measure_seam_deviation(std::span<const SphereTree* const> parts, const TriangleMesh& surface,
+                                 const LevelSet& shape, const std::function<double(const Vec3&)>& border,
+                                 double half_width_mm, std::size_t samples = 100000, uint64_t seed = 1);
 
 /// What `cariesim tree` reports about a build.
 struct TreeReport {
