@@ -8,6 +8,7 @@
 ///   greedily until every surface sample is within `tolerance` of the union; inner nodes bound their
 ///   children.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -18,6 +19,8 @@
 #include "cariesim/common/progress.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/spheretree/hierarchy.hpp"
+#include "cariesim/spheretree/lesion.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
 
@@ -69,6 +72,40 @@ void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm);
 /// Sets each leaf's material from a callback given the leaf centre (mm) and its depth (mm).
 void assign_materials(SphereTree& tree,
                       const std::function<uint16_t(const Vec3& center, float depth)>& material_of);
+
+/// How the seam between the parts of an object cut by lesions is closed (issue #10).
+struct SeamParams {
+  double band_mm = 0.75;  ///< mm each side of a lesion's border over which the uncut surface is covered again
+  double overlap_mm = 0.1;  ///< mm, how far a seam leaf may reach across a cut into the neighbouring part
+  double tolerance = 0.01;  ///< mm, largest coverage tolerance of the seam leaves
+  /// Seam leaves follow the surface to this fraction of the tree's own tolerance (at most `tolerance`):
+  /// a rigid probe's 0.05 mm tip feels the dimples between leaves as tangential force.
+  double tolerance_fraction = 1.0 / 3.0;
+  /// mm, the seam leaves' coverage tolerance for a tree of tolerance `tree_tolerance_mm`.
+  [[nodiscard]] double tolerance_for(double tree_tolerance_mm) const {
+    return std::min(tolerance, tolerance_fraction * tree_tolerance_mm);
+  }
+};
+
+/// Seam leaves (issue #10). Cutting an object into healthy and caries parts (paper §2.2) gives both
+/// parts a sharp edge where a lesion meets the surface, which inscribed spheres cannot fill: their
+/// union leaves a groove along every border. These leaves cover the uncut surface of `object` within
+/// `seam.band_mm` of every lesion's border (to `seam.tolerance_for(params.tolerance)`), tangent to it,
+/// each inside the object and reaching at most `seam.overlap_mm` across a cut; each belongs to the part
+/// holding its centre. Returned per part: [0] healthy, [1 + k] the caries of lesions[k] (the first lesion
+/// holding a point owns it, as the CSG cuts them). Leaves come flagged kLeafOnExposedSurface with their
+/// tangent normals.
+std::vector<std::vector<LeafSphere>> build_seam_leaves(const LevelSet& object,
+                                                       std::span<const LesionShape> lesions,
+                                                       const TreeParams& params, const SeamParams& seam = {},
+                                                       const ProgressFn& progress = {});
+
+/// A part's tree with its seam leaves (build_seam_leaves) added, its inner levels rebuilt. The part's
+/// own leaves that poke out of the uncut surface (`object`) within `seam.band_mm` of a border are first
+/// shrunk to poke out no more than the seam leaves may (a fifth of their tolerance).
+SphereTree add_seam_leaves(const SphereTree& part, std::span<const LeafSphere> seam_leaves,
+                           const LevelSet& object, std::span<const LesionShape> lesions,
+                           const TreeParams& params, const SeamParams& seam = {});
 
 /// Distance between the union of leaves and a surface, both ways (DESIGN.md §3).
 struct Deviation {
