@@ -18,7 +18,7 @@ namespace {
 
 // A 6 x 6 x 3 mm block (top face at z = 0) and a disk lesion 3 mm across, 1 mm deep, in its top.
 struct CutBlock {
-  TriangleMesh mesh = make_box(Vec3(-3.0, -3.0, -3.0), Vec3(3.0, 3.0, 0.0));
+  TriangleMesh mesh = testing::make_box(Vec3(-3.0, -3.0, -3.0), Vec3(3.0, 3.0, 0.0));
   LesionShape lesion;
   TreeParams params;
   LevelSet object, healthy, caries;
