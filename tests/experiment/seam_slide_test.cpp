@@ -161,6 +161,12 @@ TEST_P(BoundarySeam, EqualMaterialSlideShowsNoBorder) {
     const SlideTrace t = trace(model, model.defaults, path, 0.8, slide_end, Vec3(border, c.y(), c.z()),
                                Vec3(dir, 0.0, 0.0), Vec3::UnitZ());
     expect_no_feature(t, -kHalf + kSettle, kHalf, GetParam() + (dir > 0 ? " into the lesion" : " out of it"));
+    // The top is flat and frictionless: no tangential force anywhere along the slide, border or not.
+    double ft_max = 0.0;
+    for (std::size_t i = 0; i < t.s.size(); ++i)
+      if (t.s[i] >= -kHalf + kSettle) ft_max = std::max(ft_max, std::abs(t.ft[i]));
+    EXPECT_LE(ft_max, kNoise) << GetParam() << (dir > 0 ? " into the lesion" : " out of it")
+                              << ": tangential force on a flat frictionless top";
   }
 }
 
