@@ -83,6 +83,8 @@ SceneView::SceneView(const Model& model) : model_(model) {
     p.tissue = part.tissue;
     p.lesion = part.lesion;
     p.object = part.object;
+    p.whole = part.whole;
+    p.cut = part.cut;
     p.soft =
         part.object >= 0 && static_cast<std::size_t>(part.object) < n && soft_stiffness_[part.object] > 0.0;
     if (p.soft) p.base = part.mesh.vertices;
@@ -171,9 +173,10 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
   const StepOutput& out = snapshot.out;
   update_dents(snapshot, settings.dents);
 
-  // Opaque: the tissues (hidden caries in their host's colour, a little inflated so that no crack
-  // along the lesion's outline gives it away), the graphic tool, the force arrow.
+  // Opaque: the tissues (an object that lesions cut drawn whole while they are hidden, so that no
+  // seam outlines them; revealed, its parts in their colours), the graphic tool, the force arrow.
   for (const Part& part : parts_) {
+    if ((part.whole && settings.show_lesions) || (part.cut && !settings.show_lesions)) continue;
     const Rgba color =
         part.object >= 0
             ? object_color(part.object, settings)

@@ -73,6 +73,8 @@ class SceneView {
     int lesion = -1;
     int object = -1;
     bool soft = false;
+    bool whole = false;         // drawn while lesions are hidden
+    bool cut = false;           // drawn while lesions are revealed
     std::vector<Vec3f> base;    // undeformed vertices (soft parts)
     std::vector<Vec3f> dented;  // scratch
     bool was_dented = false;

@@ -470,6 +470,20 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
            static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
   }
 
+  // An object cut by lesions is also drawn whole: its uncut surface stands for its parts while the
+  // lesions are hidden (a trainee sees no seam).
+  if (!b.lesions.empty()) {
+    for (std::size_t k = 0; k <= b.lesions.size(); ++k)
+      model.display[model.display.size() - 1 - k].cut = true;
+    DisplayPart whole;
+    whole.name = o.name;
+    whole.mesh = b.world_mesh();
+    whole.tissue = o.tissue;
+    whole.object = static_cast<int16_t>(healthy_index);
+    whole.whole = true;
+    model.display.push_back(std::move(whole));
+  }
+
   // Seam deviation (on request): every part of the object together against its uncut surface, on a
   // band around each lesion's border.
   if (options.measure_deviation && !b.lesions.empty()) {
