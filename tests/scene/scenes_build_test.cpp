@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <string>
 
@@ -159,18 +157,10 @@ TEST(BuiltinScenesBuild, EveryBuiltInBuilds) {
 
 // scenes/examples/real-tooth.yaml: a real scan by a path relative to the scene file, with a lesion.
 TEST(ExampleScenes, RealToothScanBuilds) {
-  const fs::path data = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
-  if (!fs::exists(data)) GTEST_SKIP() << "shared data absent: " << data;
-  // From its place in the checkout when the data sits beside it; else as if the checkout did.
-  const fs::path file = fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml";
-  const fs::path beside = file.parent_path() / "../../../shared/data/open-full-jaw/patient26/tooth_30.stl";
-  const fs::path origin = fs::exists(beside)
-                              ? file
-                              : fs::path(CARIESIM_SHARED_DATA_DIR).parent_path().parent_path() / "checkout" /
-                                    "scenes" / "examples" / "real-tooth.yaml";
-  std::ifstream in(file, std::ios::binary);
-  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  const SceneDesc scene = parse_scene(text, origin);
+  const fs::path data = fs::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.ply";
+  if (!fs::exists(data)) GTEST_SKIP() << "shipped scan missing: " << data;
+  const SceneDesc scene =
+      load_scene((fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml").string());
   ASSERT_EQ(scene.objects.size(), 1u);
   EXPECT_EQ(fs::weakly_canonical(scene.objects[0].shape.file), fs::weakly_canonical(data));
 
