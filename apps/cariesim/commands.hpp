@@ -1,11 +1,28 @@
 #pragma once
 // Subcommand registry of the cariesim binary. Each command file defines one `register_<name>`.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
 
 namespace cariesim::cli {
+
+/// A number option's check: finite and in [min, max]. CLI11's Range and NonNegativeNumber let NaN
+/// through (every comparison with NaN is false), so every real-valued option uses this instead.
+inline CLI::Validator finite_range(double min, double max) {
+  return CLI::Validator(
+      [min, max](std::string& text) -> std::string {
+        double value = 0.0;
+        if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
+        if (!std::isfinite(value)) return "'" + text + "' is not a finite number";
+        if (value < min || value > max)
+          return "value " + text + " not in range [" + CLI::detail::to_string(min) + " - " +
+                 CLI::detail::to_string(max) + "]";
+        return {};
+      },
+      "FINITE in [" + CLI::detail::to_string(min) + " - " + CLI::detail::to_string(max) + "]");
+}
 
 /// Subcommands and what to run for each; the default (no subcommand) runs `fallback`.
 class Registry {

@@ -26,7 +26,7 @@ void register_experiment(CLI::App& app, Registry& registry) {
       ->check(CLI::IsMember(names));
   sub->add_option("--out", args->out, "Output folder")->required();
   sub->add_option("--rate", args->rate, "Servo rate of the simulated runs (Hz)")
-      ->check(CLI::Range(100.0, 20000.0));
+      ->check(finite_range(100.0, 20000.0));
   sub->add_flag("--quiet", args->quiet, "No progress");
   sub->add_flag("--no-figures", args->no_figures, "Write data and summary only");
   registry.add(sub, [args] {

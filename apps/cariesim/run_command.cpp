@@ -27,6 +27,7 @@ struct RunArgs {
   double exit_after = 0.0;  // s of servo time
   bool show_lesions = false;
   bool no_realtime = false;
+  std::string view;  // camera preset; empty: the whole scene framed
 };
 
 int run_simulator(const RunArgs& args) {
@@ -46,6 +47,7 @@ int run_simulator(const RunArgs& args) {
   options.exit_after = args.exit_after;
   options.show_lesions = args.show_lesions;
   options.realtime = !args.no_realtime;
+  options.view = args.view;
   return viewer::run_viewer(options);
 #else
   (void)args;
@@ -65,16 +67,19 @@ void register_run(CLI::App& app, Registry& registry) {
                   "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
       ->capture_default_str();
   sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")
-      ->check(CLI::Range(1.0, 10000.0));
+      ->check(finite_range(1.0, 10000.0));
   auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");
   sub->add_flag("--overwrite", args->overwrite, "Replace an existing record file")->needs(record);
   auto* exit_after = sub->add_option("--exit-after", args->exit_after,
                                      "Exit after this many seconds of servo time (automation)")
-                         ->check(CLI::PositiveNumber);
+                         ->check(finite_range(1e-6, 1e9));
   sub->add_option("--screenshot", args->screenshot,
                   "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
       ->needs(exit_after);
   sub->add_flag("--show-lesions", args->show_lesions, "Start with the lesions revealed (hidden by default)");
+  sub->add_option("--view", args->view,
+                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
+      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
   registry.add(sub, [args] { return run_simulator(*args); });
   registry.set_default([args] { return run_simulator(*args); });

@@ -28,12 +28,17 @@ struct ServoArgs {
   double rate = 0.0;         // Hz; 0 = the scene's servo rate
   double duration = 0.0;     // s; 0 = until the device ends or Ctrl-C
   std::string record;        // SQLite file, optional
+  bool overwrite = false;    // replace an existing record file
   double force_scale = 1.0;  // global force scale in [0, 1]
   bool no_realtime = false;
   bool quiet = false;
 };
 
-// Set by SIGINT/SIGTERM; the main thread polls it.
+// The exit status of a run whose recording failed (disk full, I/O error): the run itself ended
+// normally, but what was asked for was not all written (the committed prefix is a valid recording).
+constexpr int kExitRecordingFailed = 4;
+
+// Set by SIGINT/SIGTERM/SIGHUP; the main thread polls it.
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_interrupt(int /*signal*/) { g_interrupted = 1; }
 
@@ -93,13 +98,17 @@ int run_servo(const ServoArgs& args) {
   options.realtime = !args.no_realtime;
   options.safety.force_scale = args.force_scale;
   options.record = args.record;
+  options.recorder.overwrite = args.overwrite;
   Session session(model, options);
+  if (!session.warning().empty()) std::fprintf(stderr, "warning: %s\n", session.warning().c_str());
   const DeviceInfo& info = session.device_info();
   // A scripted or replayed path that does not loop ends the run when it ends.
   const bool ends = (info.name == "scripted" || info.name == "replay") && !args.device.ends_with(":loop");
 
+  // A closed terminal (SIGHUP) ends the run like Ctrl-C: the record is closed with its end time.
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
+  std::signal(SIGHUP, on_interrupt);
   session.start();
   if (!args.quiet) {
     const std::string until = args.duration > 0.0 ? "for " + std::to_string(args.duration) + " s"
@@ -132,7 +141,12 @@ int run_servo(const ServoArgs& args) {
   session.stop();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGHUP, SIG_DFL);
   print_report(session);
+  if (const Recorder* recorder = session.recorder(); recorder != nullptr && !recorder->status().ok) {
+    std::fprintf(stderr, "error: %s\n", recorder->status().message.c_str());
+    return kExitRecordingFailed;
+  }
   return 0;
 }
 
@@ -146,12 +160,14 @@ void register_servo(CLI::App& app, Registry& registry) {
                   "null, scripted:FILE[:loop], replay:FILE[:loop] or udp:PORT[:HOST]")
       ->capture_default_str();
   sub->add_option("--rate", args->rate, "Servo rate in Hz, up to 10000 (default: the scene's)")
-      ->check(CLI::Range(1.0, 10000.0));
+      ->check(finite_range(1.0, 10000.0));
   sub->add_option("--duration", args->duration, "Seconds to run (default: until a path ends, or Ctrl-C)")
-      ->check(CLI::NonNegativeNumber);
-  sub->add_option("--record", args->record, "Record the session to this SQLite file (must not exist)");
+      ->check(finite_range(0.0, 1e9));
+  auto* record =
+      sub->add_option("--record", args->record, "Record the session to this SQLite file (must not exist)");
+  sub->add_flag("--overwrite", args->overwrite, "Replace an existing record file")->needs(record);
   sub->add_option("--force-scale", args->force_scale, "Global force scale")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(finite_range(0.0, 1.0))
       ->capture_default_str();
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for SCHED_FIFO priority");
   sub->add_flag("--quiet", args->quiet, "Only the final report");

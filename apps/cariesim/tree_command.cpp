@@ -111,6 +111,14 @@ std::string part_json(const PartReport& part, const Model& model) {
         json_number(d.p50), json_number(d.p95), json_number(d.max), json_number(d.max_poke_out),
         json_number(d.max_fall_short), d.samples);
   }
+  if (part.seam_deviation) {
+    const Deviation& d = *part.seam_deviation;
+    out += fmt::format(
+        ", \"seam_deviation_mm\": {{\"band_mm\": {}, \"p50\": {}, \"p95\": {}, \"max\": {}, "
+        "\"max_poke_out\": {}, \"max_fall_short\": {}, \"samples\": {}}}",
+        json_number(kSeamBandHalfWidth), json_number(d.p50), json_number(d.p95), json_number(d.max),
+        json_number(d.max_poke_out), json_number(d.max_fall_short), d.samples);
+  }
   return out + "}";
 }
 
@@ -128,6 +136,13 @@ void print_part(const PartReport& part, const Model& model) {
     std::printf(
         "  deviation mm: p50 %.4f  p95 %.4f  max %.4f  (poke-out %.4f, fall-short %.4f, %zu samples)\n",
         d.p50, d.p95, d.max, d.max_poke_out, d.max_fall_short, d.samples);
+  }
+  if (part.seam_deviation) {
+    const Deviation& d = *part.seam_deviation;
+    std::printf(
+        "  seam deviation mm (all parts, +/-%.1f mm around the border): p50 %.4f  p95 %.4f  max %.4f  "
+        "(poke-out %.4f, fall-short %.4f, %zu samples)\n",
+        kSeamBandHalfWidth, d.p50, d.p95, d.max, d.max_poke_out, d.max_fall_short, d.samples);
   }
 }
 
@@ -163,7 +178,8 @@ int run_tree(const TreeArgs& args) {
     return 0;
   }
   std::printf("%s: %zu parts, %zu materials, %zu lesions, built in %.3f s\n", scene.name.c_str(),
-              report.parts.size(), model.defaults.materials.size(), model.lesions.size(), report.total_seconds);
+              report.parts.size(), model.defaults.materials.size(), model.lesions.size(),
+              report.total_seconds);
   for (const PartReport& part : report.parts) print_part(part, model);
   std::printf("tool: %zu spheres\n", model.tool.tree.leaf_count());
   return 0;
@@ -180,7 +196,7 @@ void register_tree(CLI::App& app, Registry& registry) {
       ->check(CLI::IsMember({"tight", "octree"}));
   tree->add_option("--depth", args->depth, "octree depth (levels)")->check(CLI::Range(1, 7));
   tree->add_option("--tolerance", args->tolerance, "tight mode: target surface deviation, mm")
-      ->check(CLI::Range(0.001, 10.0));
+      ->check(finite_range(0.001, 10.0));
   tree->add_option("--samples", args->samples, "surface samples for the deviation, per part")
       ->check(CLI::Range(1000, 10000000));
   tree->add_flag("--json", args->json, "print one JSON object");

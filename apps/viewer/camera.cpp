@@ -9,7 +9,70 @@ namespace {
 
 constexpr double kFrameTightness = 0.8;  // fraction of the bounding sphere's distance
 
+constexpr double kDeg = M_PI / 180.0;
+
 }  // namespace
+
+const char* preset_name(CameraPreset preset) {
+  switch (preset) {
+    case CameraPreset::Occlusal:
+      return "occlusal";
+    case CameraPreset::Buccal:
+      return "buccal";
+    case CameraPreset::Lingual:
+      return "lingual";
+    case CameraPreset::Operator:
+      return "operator";
+  }
+  return "occlusal";
+}
+
+bool parse_preset(const std::string& name, CameraPreset& out) {
+  for (const CameraPreset p :
+       {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual, CameraPreset::Operator}) {
+    if (name == preset_name(p)) {
+      out = p;
+      return true;
+    }
+  }
+  return false;
+}
+
+void OrbitCamera::look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm) {
+  // The buccal direction at the focus: away from the arch's centre, in the occlusal plane (+y, toward
+  // the throat, when the focus sits on the centre).
+  Vec3 buccal(focus.x() - arch_center.x(), focus.y() - arch_center.y(), 0.0);
+  if (buccal.norm() < 1e-6) buccal = Vec3::UnitY();
+  buccal.normalize();
+  // forward() = (sin yaw cos pitch, cos yaw cos pitch, -sin pitch): yaw of a horizontal direction d.
+  const auto yaw_of = [](const Vec3& d) { return std::atan2(d.x(), d.y()); };
+  target = focus;
+  distance = std::clamp(distance_mm, 1.0, 2000.0);
+  switch (preset) {
+    case CameraPreset::Occlusal:
+      // From above, the front of the mouth (-y) at the top of the screen.
+      yaw = 0.0;
+      pitch = 85.0 * kDeg;
+      break;
+    case CameraPreset::Buccal:
+      // From the cheek, looking toward the tongue, a little from above.
+      yaw = yaw_of(-buccal);
+      pitch = 20.0 * kDeg;
+      break;
+    case CameraPreset::Lingual:
+      // From the tongue's side, looking out toward the cheek, more from above (over the tongue).
+      yaw = yaw_of(buccal);
+      pitch = 40.0 * kDeg;
+      break;
+    case CameraPreset::Operator:
+      // From in front of the patient, over the cheek side of the working site and above, looking back
+      // and in (a right-handed operator at 8 o'clock for the right side, 4 o'clock for the left): the
+      // explorer's handle, which rises toward the front of the mouth, does not stand in the way.
+      yaw = yaw_of((Vec3::UnitY() - buccal).normalized());
+      pitch = 50.0 * kDeg;
+      break;
+  }
+}
 
 void OrbitCamera::frame(const Eigen::AlignedBox3d& box) {
   if (box.isEmpty()) return;

@@ -5,12 +5,24 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
 
 #include "cariesim/common/math.hpp"
 
 namespace cariesim::viewer {
 
 using Mat4f = Eigen::Matrix4f;  ///< 4 x 4, column-major as OpenGL expects
+
+/// The clinician's views of a working site (the scenes' convention: world +z is occlusal, up; the
+/// patient faces -y; buccal is away from the arch's centre): from above the occlusal surface, from
+/// the cheek, from the tongue, and from where a right-handed operator sits in front of the patient
+/// and looks into the lower arch from above the lip.
+enum class CameraPreset : uint8_t { Occlusal, Buccal, Lingual, Operator };
+/// "occlusal", "buccal", "lingual", "operator".
+const char* preset_name(CameraPreset preset);
+/// Parses a preset name; false when unknown.
+bool parse_preset(const std::string& name, CameraPreset& out);
 
 class OrbitCamera {
  public:
@@ -22,6 +34,9 @@ class OrbitCamera {
 
   /// Frames a box: the target at its centre, the distance so that the whole box fits in view.
   void frame(const Eigen::AlignedBox3d& box);
+  /// Looks at `focus` (mm, world; e.g. the explorer's tip) from a clinical direction, `distance` mm
+  /// away; `arch_center` (mm, world) tells buccal from lingual.
+  void look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm = 45.0);
   /// The eye position (mm, world).
   [[nodiscard]] Vec3 eye() const;
   /// Unit vectors of the view in the world: forward (into the screen), right and up on the screen.

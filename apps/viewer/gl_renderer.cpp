@@ -371,7 +371,8 @@ void GlRenderer::draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& c
   glDepthMask(GL_TRUE);
 }
 
-void GlRenderer::draw_spheres(std::span<const SphereInstance> spheres, const Pose& pose, const Rgba& color) {
+void GlRenderer::draw_spheres(std::span<const SphereInstance> spheres, const Pose& pose, const Rgba& color,
+                              bool on_top) {
   if (spheres.empty()) return;
   glUseProgram(mesh_program_);
   const Mat4f model = pose_matrix(pose);
@@ -387,8 +388,10 @@ void GlRenderer::draw_spheres(std::span<const SphereInstance> spheres, const Pos
   glBindBuffer(GL_ARRAY_BUFFER, instance_vbo_);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(spheres.size() * sizeof(SphereInstance)),
                spheres.data(), GL_STREAM_DRAW);
+  if (on_top) glDisable(GL_DEPTH_TEST);
   glDrawElementsInstanced(GL_TRIANGLES, sphere_index_count_, GL_UNSIGNED_INT, nullptr,
                           static_cast<GLsizei>(spheres.size()));
+  glEnable(GL_DEPTH_TEST);
   glBindVertexArray(0);
   glDepthMask(GL_TRUE);
 }

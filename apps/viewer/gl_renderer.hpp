@@ -86,7 +86,8 @@ class GlRenderer {
   /// As above with any object -> world matrix (e.g. a scaled arrow).
   void draw_mesh(const GlMesh& mesh, const Mat4f& model, const Rgba& color, float inflate = 0.0f);
   /// Draws spheres placed by `pose` (their frame -> world) in one colour.
-  void draw_spheres(std::span<const SphereInstance> spheres, const Pose& pose, const Rgba& color);
+  void draw_spheres(std::span<const SphereInstance> spheres, const Pose& pose, const Rgba& color,
+                    bool on_top = false);
   /// Draws line segments (pairs of vertices), in world coordinates, over or behind the scene.
   void draw_lines(std::span<const LineVertex> vertices, bool on_top);
 

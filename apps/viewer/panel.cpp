@@ -257,7 +257,22 @@ void ViewerApp::panel_view() {
       ImGui::EndCombo();
     }
   }
-  if (ImGui::Button("Frame scene (F)")) camera_.frame(session_->view->bounds());
+  if (ImGui::Button("Frame scene (F)")) {
+    camera_.frame(session_->view->bounds());
+    preset_.reset();
+  }
+  // The clinician's views on the explorer's tip (keys 1-4), and a camera that follows the tip (T).
+  ImGui::Text("view on the tip:");
+  constexpr CameraPreset kPresets[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
+                                       CameraPreset::Operator};
+  for (int k = 0; k < 4; ++k) {
+    ImGui::SameLine();
+    const std::string label = std::to_string(k + 1) + " " + preset_name(kPresets[k]);
+    if (ImGui::Button(label.c_str())) apply_preset(kPresets[k]);
+  }
+  ImGui::Checkbox("follow the tip (T)", &follow_tip_);
+  ImGui::SameLine();
+  ImGui::Checkbox("tip over everything", &settings_.tip_xray);
   ImGui::TextDisabled("left-drag move, wheel depth (shift: fine), right-drag turn;");
   ImGui::TextDisabled("middle- or alt-drag orbit, ctrl+wheel zoom");
 }
@@ -381,6 +396,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.field("w", static_cast<double>(panel_.w * scale.x))
       .field("h", static_cast<double>(panel_.h * scale.y));
   json.end_object();
+  json.field("camera", preset_ ? preset_name(*preset_) : "framed");
   json.key("view")
       .begin_object()
       .field("x", 0)

@@ -16,6 +16,8 @@ constexpr Rgba kTunnel{1.00f, 0.90f, 0.20f, 0.30f};
 constexpr Rgba kContactPoint{1.00f, 0.20f, 0.20f, 1.00f};
 constexpr Rgba kContactNormal{1.00f, 0.30f, 0.30f, 1.00f};
 constexpr Rgba kForceArrow{0.95f, 0.25f, 0.15f, 1.00f};
+constexpr Rgba kWorkingEndXray{0.85f, 0.87f, 0.92f, 0.40f};
+constexpr double kWorkingEnd = 12.0;     // mm of the explorer from its tip drawn over everything
 constexpr float kCariesInflate = 0.08f;  // mm
 
 // Overlay colours of the sphere trees by kind of object.
@@ -106,6 +108,13 @@ SceneView::SceneView(const Model& model) : model_(model) {
     if (along >= next) {
       tool_axis_points_.push_back(chain[i].center);
       next += 10.0;
+    }
+    // The working end: the chain's first kWorkingEnd mm.
+    if (along <= kWorkingEnd) {
+      const Vec3& c = chain[i].center;
+      working_end_.push_back(
+          {{static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())},
+           static_cast<float>(chain[i].radius)});
     }
   }
 }
@@ -216,6 +225,9 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
     renderer.draw_mesh(tool_mesh_, out.haptic, kHapticGhost);
   if (settings.recorded_ghost && recorded && recorded->finite())
     renderer.draw_mesh(tool_mesh_, *recorded, kRecordedGhost);
+
+  // The working end over everything (its tip never hidden by a tooth or the handle).
+  if (settings.tip_xray) renderer.draw_spheres(working_end_, out.graphic, kWorkingEndXray, true);
 
   // Lines over everything: contact normals scaled by force.
   if (settings.contacts) {

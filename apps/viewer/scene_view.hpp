@@ -20,13 +20,16 @@ namespace cariesim::viewer {
 
 /// The overlay and display toggles of the panel.
 struct ViewSettings {
-  bool show_lesions = false;          ///< caries drawn in caries colour (hidden: in the healthy colour)
-  bool haptic_ghost = true;           ///< the haptic tool as a translucent ghost
-  bool recorded_ghost = true;         ///< a replay's recorded (graphic) tool as a second ghost
-  bool contacts = false;              ///< contact points and normals scaled by force
-  bool tunnel = true;                 ///< the five virtual-tunnel spheres while penetrating
-  bool force_arrow = true;            ///< the force as an arrow at the tool tip
-  bool dents = true;                  ///< soft tissue dents
+  bool show_lesions = false;   ///< caries drawn in caries colour (hidden: in the healthy colour)
+  bool haptic_ghost = true;    ///< the haptic tool as a translucent ghost
+  bool recorded_ghost = true;  ///< a replay's recorded (graphic) tool as a second ghost
+  bool contacts = false;       ///< contact points and normals scaled by force
+  bool tunnel = true;          ///< the five virtual-tunnel spheres while penetrating
+  bool force_arrow = true;     ///< the force as an arrow at the tool tip
+  bool dents = true;           ///< soft tissue dents
+  /// The explorer's working end drawn faintly over everything, so that neither a tooth nor the
+  /// tool's own handle hides the tip
+  bool tip_xray = true;
   bool trees = false;                 ///< sphere trees at `tree_level`
   int tree_level = 4;                 ///< level of the tree cut shown (0 = root)
   int tree_object = -1;               ///< -1: every object, -2: the tool, else a Model::objects index
@@ -90,6 +93,7 @@ class SceneView {
   std::vector<std::vector<uint8_t>> levels_;  // per object, then the tool last
   std::vector<TreeCut> cuts_;                 // per object, then the tool last
   std::vector<Vec3> tool_axis_points_;
+  std::vector<SphereInstance> working_end_;  // the tool's sphere chain near the tip, tool frame
   Eigen::AlignedBox3d bounds_;
   int max_level_ = 0;
   std::size_t dented_vertices_ = 0;

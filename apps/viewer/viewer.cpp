@@ -75,6 +75,13 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
   if (options_.device != "mouse") (void)make_device(options_.device);
   settings_.show_lesions = options_.show_lesions;
+  if (!options_.view.empty()) {
+    CameraPreset preset;
+    if (!parse_preset(options_.view, preset))
+      throw Error("view '" + options_.view + "': not one of occlusal, buccal, lingual, operator");
+    pending_preset_ = preset;
+    follow_tip_ = true;
+  }
 }
 
 ViewerApp::~ViewerApp() {
@@ -242,7 +249,24 @@ void ViewerApp::handle_input() {
       restart_servo();
     if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
     if (ImGui::IsKeyPressed(GLFW_KEY_L, false)) settings_.show_lesions = !settings_.show_lesions;
+    // 1-4: the clinician's views on the explorer's tip; T: the camera follows the tip.
+    constexpr CameraPreset kKeys[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
+                                      CameraPreset::Operator};
+    for (int k = 0; k < 4; ++k)
+      if (ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)) apply_preset(kKeys[k]);
+    if (ImGui::IsKeyPressed(GLFW_KEY_T, false)) follow_tip_ = !follow_tip_;
   }
+}
+
+void ViewerApp::apply_preset(CameraPreset preset) {
+  // On the explorer's tip once the servo has drawn it; until then the preset waits.
+  if (!session_ || !have_snapshot_) {
+    pending_preset_ = preset;
+    return;
+  }
+  camera_.look(preset, snapshot_.out.graphic.p, session_->view->bounds().center());
+  preset_ = preset;
+  pending_preset_.reset();
 }
 
 void ViewerApp::read_snapshot() {
@@ -251,6 +275,8 @@ void ViewerApp::read_snapshot() {
   if (session_->run->latest(snapshot_)) {
     have_snapshot_ = true;
     history_.add(snapshot_.t, snapshot_.out.force, snapshot_.out.torque);
+    if (pending_preset_) apply_preset(*pending_preset_);
+    if (follow_tip_ && snapshot_.out.graphic.p.allFinite()) camera_.target = snapshot_.out.graphic.p;
   }
   // Timing and device counters about once a second.
   const auto now = std::chrono::steady_clock::now();

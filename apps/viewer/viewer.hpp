@@ -19,6 +19,9 @@ struct ViewerOptions {
   bool realtime = true;               ///< ask for real-time priority for the servo thread
   int width = 1280;                   ///< px, window width
   int height = 800;                   ///< px, window height
+  /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);
+  /// empty: the whole scene framed
+  std::string view;
 };
 
 /// True when a window system is reachable (DISPLAY or WAYLAND_DISPLAY is set).

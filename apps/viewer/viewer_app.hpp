@@ -8,6 +8,7 @@
 #include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -117,6 +118,12 @@ class ViewerApp {
   PanelState panel_;
   std::vector<float> plot_scratch_;
   int view_width_ = 0;  // px, the 3-D view's width (the panel takes the rest of the window)
+  // Camera presets (camera.hpp): the one last chosen, one waiting for the first snapshot, and whether
+  // the camera keeps the explorer's tip at the centre.
+  std::optional<CameraPreset> preset_;
+  std::optional<CameraPreset> pending_preset_;
+  bool follow_tip_ = false;
+  void apply_preset(CameraPreset preset);
 };
 
 /// px, width of the panel docked at the window's right edge.

@@ -17,6 +17,7 @@ ForceSafety::ForceSafety(const SafetyParams& params) : params_(params) {
   params_.ramp_time = sane(params.ramp_time, defaults.ramp_time);
   params_.stale_after = sane(params.stale_after, defaults.stale_after);
   params_.max_jump = sane(params.max_jump, defaults.max_jump);
+  params_.max_jump_rotation = sane(params.max_jump_rotation, defaults.max_jump_rotation);
   set_force_scale(params.force_scale);
 }
 
@@ -39,8 +40,12 @@ void ForceSafety::filter(Vec3& force, Vec3& torque, const DeviceState& input, do
     flags_ |= kSafetyNonFinite;
   if (!(now - input.stamp <= params_.stale_after)) flags_ |= kSafetyStale;
   if (pose_finite) {
-    if (has_last_ && (input.pose.p - last_position_).norm() > params_.max_jump) flags_ |= kSafetyJump;
+    const Quat q = input.pose.q.normalized();
+    if (has_last_ && ((input.pose.p - last_position_).norm() > params_.max_jump ||
+                      q.angularDistance(last_orientation_) > params_.max_jump_rotation))
+      flags_ |= kSafetyJump;
     last_position_ = input.pose.p;
+    last_orientation_ = q;
     has_last_ = true;
   }
   if ((flags_ & kSafetyFaultMask) != 0) {

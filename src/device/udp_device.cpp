@@ -24,6 +24,12 @@ namespace {
 
 // The drift between client and simulator clocks that the staleness test absorbs (0.1 %).
 constexpr double kDriftAllowance = 1e-3;
+// A sequence number further ahead than this within a live session is not believed from one packet
+// (at 10 kHz it is 6.5 s of packets, far beyond the session timeout).
+constexpr int32_t kMaxSequenceJump = 1 << 16;
+// Consecutive packets that agree with each other (increasing sequence numbers, clock offsets within
+// the timeout) and disagree with the session: after this many the session adopts them.
+constexpr int kResyncPackets = 3;
 // How long the receiver blocks in recvfrom before it looks at the running flag again.
 constexpr long kReceivePollUs = 20000;
 
@@ -138,20 +144,65 @@ BridgeVerdict BridgeInbox::judge(const uint8_t* data, std::size_t size, uint64_t
     session_alive_ = true;
     client_ = source;
     clock_offset_ = offset_sample;
+    run_packets_ = 0;
     sessions_.store(sessions_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   } else {
-    // Within a session: strictly increasing sequence numbers, bounded transit delay.
+    // Within a session: increasing sequence numbers (no implausible leap ahead), bounded transit
+    // delay. The delay is measured against the smallest clock offset seen, relaxed by the drift.
     const int32_t d = sequence_diff(sequence, last_sequence_);
     if (d == 0) return BridgeVerdict::Duplicate;
-    if (d < 0) return BridgeVerdict::OutOfOrder;
     const double relaxed_offset =
         clock_offset_ + kDriftAllowance * std::max(recv_time - last_accept_time_, 0.0);
-    if (offset_sample - relaxed_offset > timeout_) return BridgeVerdict::Stale;
-    clock_offset_ = std::min(relaxed_offset, offset_sample);
+    const double lateness = offset_sample - relaxed_offset;  // s, > 0: later than the fastest packet
+    const bool in_order = d > 0 && d <= kMaxSequenceJump;
+    const bool stale = lateness > timeout_;
+    if (in_order && !stale) {
+      // A packet far earlier than any before (its client clock leapt ahead) is fresh, but one such
+      // packet does not move the offset: only a run of them does (the clock really jumped).
+      if (lateness < -timeout_) {
+        if (note_disagreeing(sequence, offset_sample, recv_time) >= kResyncPackets) {
+          clock_offset_ = run_offset_;
+          run_packets_ = 0;
+        }
+      } else {
+        clock_offset_ = std::min(relaxed_offset, offset_sample);
+        run_packets_ = 0;
+      }
+    } else {
+      // Rejected, unless it completes a run of packets that agree with each other: the client's
+      // sequence numbers or clock jumped (one bad packet, or a restart without a hello), and the
+      // session follows it instead of refusing it until it falls silent. A late run must also last
+      // longer than the timeout, so a burst delayed in transit stays rejected.
+      const int run = note_disagreeing(sequence, offset_sample, recv_time);
+      const bool resync = run >= kResyncPackets && (in_order ? recv_time - run_started_ >= timeout_ : !stale);
+      if (!resync) return in_order ? BridgeVerdict::Stale : BridgeVerdict::OutOfOrder;
+      clock_offset_ = run_offset_;
+      run_packets_ = 0;
+      resyncs_.store(resyncs_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    }
   }
   last_sequence_ = sequence;
   last_accept_time_ = recv_time;
   return parsed;
+}
+
+// Extends the run of packets that disagree with the session when this one agrees with the run's last
+// (sequence number after it, clock offset within the timeout of the run's), else starts a new run.
+// Returns the run's length.
+int BridgeInbox::note_disagreeing(uint32_t sequence, double offset, double recv_time) {
+  const int32_t d = sequence_diff(sequence, run_sequence_);
+  const bool continues =
+      run_packets_ > 0 && d > 0 && d <= kMaxSequenceJump && std::abs(offset - run_offset_) <= timeout_;
+  if (continues) {
+    ++run_packets_;
+    run_offset_ = std::min(run_offset_, offset);
+  } else {
+    run_packets_ = 1;
+    run_offset_ = offset;
+    run_started_ = recv_time;
+  }
+  run_sequence_ = sequence;
+  return run_packets_;
 }
 
 BridgeCounters BridgeInbox::counters() const {
@@ -159,6 +210,7 @@ BridgeCounters BridgeInbox::counters() const {
   for (std::size_t v = 0; v < kBridgeVerdictCount; ++v)
     c.by_verdict[v] = counts_[v].load(std::memory_order_relaxed);
   c.sessions = sessions_.load(std::memory_order_relaxed);
+  c.resyncs = resyncs_.load(std::memory_order_relaxed);
   for (uint64_t n : c.by_verdict) c.received += n;
   return c;
 }
@@ -401,6 +453,7 @@ std::vector<DeviceCounter> UdpDevice::counters() const {
   for (std::size_t v = 0; v < kBridgeVerdictCount; ++v)
     out.push_back({bridge_verdict_name(static_cast<BridgeVerdict>(v)), c.by_verdict[v]});
   out.push_back({"sessions", c.sessions});
+  out.push_back({"resyncs", c.resyncs});
   out.push_back({"sent", c.sent});
   out.push_back({"send_errors", c.send_errors});
   return out;

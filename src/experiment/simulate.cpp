@@ -1,7 +1,11 @@
 #include "cariesim/experiment/simulate.hpp"
 
+#include <fmt/format.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 
 #include "cariesim/common/error.hpp"
@@ -13,46 +17,88 @@ std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory
   return simulate(model, model.defaults, trajectory, rate_hz, on_step);
 }
 
-std::vector<SimSample> simulate(const Model& model, const Params& params, const Trajectory& trajectory,
-                                double rate_hz, const std::function<void(const SimSample&)>& on_step) {
+std::size_t sim_step_count(const Trajectory& trajectory, double rate_hz) {
   if (trajectory.empty()) throw Error("simulate: the trajectory is empty");
   if (!(rate_hz >= 1.0 && rate_hz <= 100000.0))
     throw Error("simulate: servo rate " + std::to_string(rate_hz) + " Hz is outside [1, 100000]");
+  // Counted in floating point first: a span of 1e300 s must not wrap around a size_t.
+  const double span = trajectory.end() - trajectory.start();  // s
+  const double steps = std::floor(span * rate_hz + 1e-9) + 1.0;
+  if (!(std::isfinite(steps) && steps <= kMaxSimSteps))
+    throw Error(
+        fmt::format("simulate: the trajectory spans {:g} s: {:g} steps at {:g} Hz, more than the {:g} "
+                    "a run may have (split the trajectory or lower the rate)",
+                    span, steps, rate_hz, kMaxSimSteps));
+  return static_cast<std::size_t>(steps);
+}
+
+std::size_t simulate_each(const Model& model, const Params& params, const Trajectory& trajectory,
+                          double rate_hz, const std::function<void(const SimSample&)>& on_step) {
+  const std::size_t steps = sim_step_count(trajectory, rate_hz);
   const double dt = 1.0 / rate_hz;
-  const auto steps = static_cast<std::size_t>(std::floor((trajectory.end() - trajectory.start()) * rate_hz + 1e-9)) + 1;
-  std::vector<SimSample> samples;
-  samples.reserve(steps);
   TrajectoryCursor cursor(trajectory);
   State state(model, trajectory.pose.front());
-  // Fixed time step (never the measured wall-clock delta).
+  // Fixed time step (never the measured wall-clock delta); one sample alive at a time.
+  SimSample sample;
   for (std::size_t i = 0; i < steps; ++i) {
     const double t = trajectory.start() + static_cast<double>(i) * dt;
-    SimSample sample;
     sample.t = t - trajectory.start();
     sample.out = step(model, params, state, HapticInput{cursor.at(t), dt});
     if (on_step) on_step(sample);
-    samples.push_back(sample);
   }
+  return steps;
+}
+
+std::vector<SimSample> simulate(const Model& model, const Params& params, const Trajectory& trajectory,
+                                double rate_hz, const std::function<void(const SimSample&)>& on_step) {
+  std::vector<SimSample> samples;
+  samples.reserve(sim_step_count(trajectory, rate_hz));
+  simulate_each(model, params, trajectory, rate_hz, [&](const SimSample& sample) {
+    if (on_step) on_step(sample);
+    samples.push_back(sample);
+  });
   return samples;
 }
 
+SimCsvWriter::SimCsvWriter(const std::filesystem::path& file)
+    : file_(file), out_(std::fopen(file.c_str(), "w")) {
+  if (!out_) throw Error(file.string() + ": cannot write the simulation CSV: " + std::strerror(errno));
+  std::fputs(
+      "t,h_px,h_py,h_pz,h_qw,h_qx,h_qy,h_qz,g_px,g_py,g_pz,g_qw,g_qx,g_qy,g_qz,"
+      "fx,fy,fz,tx,ty,tz,state,depth,contacts,step_us\n",
+      out_);
+}
+
+SimCsvWriter::~SimCsvWriter() {
+  if (out_) std::fclose(out_);
+}
+
+void SimCsvWriter::write(const SimSample& s) {
+  const Pose& h = s.out.haptic;
+  const Pose& g = s.out.graphic;
+  const int n =
+      std::fprintf(out_,
+                   "%.6f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
+                   "%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%s,%.6f,%d,%.2f\n",
+                   s.t, h.p.x(), h.p.y(), h.p.z(), h.q.w(), h.q.x(), h.q.y(), h.q.z(), g.p.x(), g.p.y(),
+                   g.p.z(), g.q.w(), g.q.x(), g.q.y(), g.q.z(), s.out.force.x(), s.out.force.y(),
+                   s.out.force.z(), s.out.torque.x(), s.out.torque.y(), s.out.torque.z(),
+                   state_name(s.out.state), s.out.depth, s.out.contacts, s.out.step_us);
+  if (n < 0 || std::ferror(out_)) throw Error(file_.string() + ": write failed: " + std::strerror(errno));
+}
+
+void SimCsvWriter::close() {
+  if (!out_) return;
+  const bool failed = std::ferror(out_) != 0;
+  const int rc = std::fclose(out_);
+  out_ = nullptr;
+  if (failed || rc != 0) throw Error(file_.string() + ": write failed: " + std::strerror(errno));
+}
+
 void write_sim_csv(const std::filesystem::path& file, const std::vector<SimSample>& samples) {
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> out(std::fopen(file.c_str(), "w"), &std::fclose);
-  if (!out) throw Error(file.string() + ": cannot write the simulation CSV");
-  std::fputs("t,h_px,h_py,h_pz,h_qw,h_qx,h_qy,h_qz,g_px,g_py,g_pz,g_qw,g_qx,g_qy,g_qz,"
-             "fx,fy,fz,tx,ty,tz,state,depth,contacts,step_us\n", out.get());
-  for (const SimSample& s : samples) {
-    const Pose& h = s.out.haptic;
-    const Pose& g = s.out.graphic;
-    std::fprintf(out.get(),
-                 "%.6f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
-                 "%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%s,%.6f,%d,%.2f\n",
-                 s.t, h.p.x(), h.p.y(), h.p.z(), h.q.w(), h.q.x(), h.q.y(), h.q.z(), g.p.x(), g.p.y(), g.p.z(),
-                 g.q.w(), g.q.x(), g.q.y(), g.q.z(), s.out.force.x(), s.out.force.y(), s.out.force.z(),
-                 s.out.torque.x(), s.out.torque.y(), s.out.torque.z(), state_name(s.out.state), s.out.depth,
-                 s.out.contacts, s.out.step_us);
-  }
-  if (std::ferror(out.get())) throw Error(file.string() + ": write failed");
+  SimCsvWriter out(file);
+  for (const SimSample& s : samples) out.write(s);
+  out.close();
 }
 
 }  // namespace cariesim

@@ -238,6 +238,9 @@ TriangleMesh load_mesh(const std::filesystem::path& file, MeshReport* report,
     fail(what, fmt::format("invalid scale {} (must be finite and positive)", options.scale));
   }
   MeshReport local;
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    fail(what, "is a directory, not a mesh file (STL, OBJ or PLY)");
   const Format format = format_of(file, what);
   const std::string bytes = read_bytes(file, what);
 

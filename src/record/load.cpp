@@ -1,6 +1,7 @@
 // Reading recordings back: load_recording (everything into memory) and export_recording_csv (streamed
 // row by row, so a long session exports without holding it in memory).
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -215,15 +216,72 @@ Recording load_recording(const fs::path& file) {
   return out;
 }
 
-ExportSummary export_recording_csv(const fs::path& file, const fs::path& dir) {
+namespace {
+
+// The export's staging folder: a hidden sibling of the target (same file system, so the files move
+// into place by rename), removed whatever happens unless released.
+class Staging {
+ public:
+  explicit Staging(const fs::path& target)
+      : path_(target.parent_path() /
+              ("." + target.filename().string() + ".export-" + std::to_string(::getpid()))) {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+    if (!fs::create_directories(path_, ec) || ec)
+      throw Error(target.string() + ": cannot create the export's staging folder " + path_.string() + ": " +
+                  (ec ? ec.message() : std::string("it exists")));
+  }
+  ~Staging() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  Staging(const Staging&) = delete;
+  Staging& operator=(const Staging&) = delete;
+  [[nodiscard]] const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+// Moves the finished files from the staging folder into `dir`: the whole folder by one rename when
+// `dir` does not exist yet, otherwise file by file (each rename replaces one earlier file at once).
+void publish(const fs::path& staging, const fs::path& dir, std::vector<fs::path>& files) {
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) {
+    fs::rename(staging, dir, ec);
+    if (ec) throw Error(dir.string() + ": cannot move the export into place: " + ec.message());
+  } else {
+    if (!fs::is_directory(dir, ec)) throw Error(dir.string() + ": exists and is not a folder");
+    for (const fs::path& f : files) {
+      fs::rename(f, dir / f.filename(), ec);
+      if (ec)
+        throw Error((dir / f.filename()).string() + ": cannot move the export into place: " + ec.message());
+    }
+  }
+  for (fs::path& f : files) f = dir / f.filename();
+}
+
+}  // namespace
+
+// Everything is written into a staging folder beside `dir` and moved into `dir` only when complete,
+// so a failed export leaves an earlier one in `dir` as it was.
+ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir) {
   int version = 0;
   const std::unique_ptr<Database> db = open_recording(file, version);
   Recording session;
   read_session(*db, session);
+  fs::path target = out_dir.lexically_normal();
+  if (target.filename().empty()) target = target.parent_path();
+  if (target.empty()) target = ".";
   std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw Error(dir.string() + ": cannot create the export folder: " + ec.message());
+  if (fs::exists(target, ec) && !fs::is_directory(target, ec))
+    throw Error(target.string() + ": exists and is not a folder");
+  if (!target.parent_path().empty()) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw Error(target.string() + ": cannot create the export folder: " + ec.message());
+  }
+  const Staging staging(fs::absolute(target, ec));
+  const fs::path& dir = staging.path();
   ExportSummary summary;
   db->exec("BEGIN", "cannot begin reading");
 
@@ -320,6 +378,7 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& dir) {
     summary.files.push_back(dir / "events.csv");
   }
   db->exec("COMMIT", "cannot end reading");
+  publish(dir, target, summary.files);
   return summary;
 }
 

@@ -4,10 +4,10 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstring>
 #include <mutex>
 #include <optional>
@@ -29,8 +29,12 @@ namespace fs = std::filesystem;
 constexpr auto kIdleSleep = std::chrono::milliseconds(1);
 // s: sample times this close to a batch window's end count as past it (i / rate is not exact).
 constexpr double kTimeTolerance = 1e-9;
-// How often the checkpointer thread copies the WAL into the database file.
+// How often the writer copies the WAL into the database file, by the wall clock and by sample time
+// (whichever comes first, so a stream pushed faster than real time is bounded too).
 constexpr auto kCheckpointInterval = std::chrono::milliseconds(250);
+constexpr double kCheckpointSampleSeconds = 0.25;  // s
+// bytes: the WAL file is truncated back to this size when it restarts after a checkpoint.
+constexpr int64_t kWalSizeLimit = int64_t{4} << 20;
 
 // Options and session values the schema cannot hold are refused before anything is created.
 void check_arguments(const fs::path& file, const SessionInfo& info, const RecorderOptions& options) {
@@ -60,7 +64,7 @@ void claim_file(const fs::path& file, bool overwrite) {
     if (err == EEXIST)
       throw Error(file.string() +
                   ": already exists; refusing to overwrite a recording (choose another file, or "
-                  "set overwrite)");
+                  "replace it with --overwrite)");
     throw Error(file.string() + ": cannot create the recording: " + std::strerror(err));
   }
   ::close(fd);
@@ -83,7 +87,7 @@ struct Recorder::Impl {
   void commit(std::atomic<uint64_t>& written);
   void finish(std::atomic<uint64_t>& written);
   void fail(const std::string& what, int rc);
-  void run_checkpoints();
+  void checkpoint_if_due();
   bool external_pending();
 
   fs::path file;
@@ -94,10 +98,6 @@ struct Recorder::Impl {
   std::vector<record::EventDeriver::Change> changes;  // scratch, reused every batch
 
   std::thread writer;
-  std::thread checkpointer;
-  std::mutex checkpoint_mutex;  // guards checkpoint_stop
-  std::condition_variable checkpoint_wake;
-  bool checkpoint_stop = false;
   std::atomic<bool> stop_requested{false};
   bool started = false;
   bool closed = false;
@@ -106,6 +106,10 @@ struct Recorder::Impl {
   bool in_tx = false;
   double batch_t0 = 0.0;           // s, sample time of its first sample
   Clock::time_point batch_opened;  // wall time it was opened
+  double last_t = 0.0;             // s, sample time of the last sample written
+  double checkpoint_t = 0.0;       // s, sample time of the last checkpoint
+  Clock::time_point checkpointed = Clock::now();  // wall time of the last checkpoint
+  bool warned_checkpoint = false;                 // a checkpoint that could not finish was logged
   uint64_t batch_samples = 0;
   int64_t next_sample_id = 0;
   int64_t events_written = 0;
@@ -129,9 +133,11 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
           "cannot set synchronous");
   db.exec("PRAGMA application_id=" + std::to_string(record::kApplicationId), "cannot set the application id");
   db.exec("PRAGMA busy_timeout=1000", "cannot set the busy timeout");
-  // Checkpoints (copying the WAL into the file, with its fsync) run on their own thread, so a slow
-  // disk never stalls a commit and the crash window stays one batch.
+  // The writer checkpoints itself between batches (checkpoint_if_due), where no transaction is
+  // open, so the checkpoint completes and the next batch restarts the WAL from its beginning; the
+  // WAL file is cut back to kWalSizeLimit when it restarts.
   db.exec("PRAGMA wal_autocheckpoint=0", "cannot turn off automatic checkpoints");
+  db.exec("PRAGMA journal_size_limit=" + std::to_string(kWalSizeLimit), "cannot limit the WAL size");
   if (options.max_bytes > 0) {
     int64_t page_size = 4096;
     {
@@ -219,6 +225,7 @@ void Recorder::Impl::handle(const ServoSample& s, std::atomic<uint64_t>& written
   }
   ++next_sample_id;
   ++batch_samples;
+  last_t = s.t;
   deriver.add(s);
 }
 
@@ -284,6 +291,9 @@ void Recorder::Impl::commit(std::atomic<uint64_t>& written) {
     return;
   }
   in_tx = false;
+  // Checkpoint before the batch counts as written, so a reader that sees it written also sees the
+  // database file up to date (to the last checkpoint).
+  checkpoint_if_due();
   events_written += new_events;
   written.fetch_add(batch_samples, std::memory_order_release);
   std::lock_guard lock(status_mutex);
@@ -320,28 +330,29 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
   if (db.close() != SQLITE_OK && !failed) fail("cannot close the database", SQLITE_ERROR);
 }
 
-// The checkpointer: a second connection that runs passive checkpoints (they never block the writer)
-// until stop(). Without it the WAL would only grow until the final checkpoint; that is all a failure
-// here costs, so it is logged, not reported as a recording failure.
-void Recorder::Impl::run_checkpoints() {
-  try {
-    record::Database connection(file, SQLITE_OPEN_READWRITE);
-    connection.exec("PRAGMA busy_timeout=100", "cannot set the busy timeout");
-    bool warned = false;
-    std::unique_lock lock(checkpoint_mutex);
-    while (!checkpoint_wake.wait_for(lock, kCheckpointInterval, [this] { return checkpoint_stop; })) {
-      lock.unlock();
-      const int rc =
-          sqlite3_wal_checkpoint_v2(connection.get(), nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
-      if (rc != SQLITE_OK && rc != SQLITE_BUSY && !warned) {
-        spdlog::warn("recorder: {}: checkpoint failed: {}", file.string(), connection.message());
-        warned = true;
-      }
-      lock.lock();
-    }
-  } catch (const std::exception& e) {
-    spdlog::warn("recorder: checkpoints stopped: {}", e.what());
+// Between batches, every 250 ms of wall or sample time: a PASSIVE checkpoint on the writer's own
+// connection. No transaction is open, so unless another process holds a read snapshot it copies the
+// whole WAL into the database file (the .db alone then holds the stream up to here) and the next
+// batch restarts the WAL. Its fsync stalls the writer, not the servo loop (the queue holds 20 s). A
+// checkpoint that cannot finish (a reader holds a snapshot) is logged once and retried at the next.
+void Recorder::Impl::checkpoint_if_due() {
+  const auto now = Clock::now();
+  if (now - checkpointed < kCheckpointInterval && last_t - checkpoint_t < kCheckpointSampleSeconds) return;
+  int log_frames = 0;
+  int copied_frames = 0;
+  const int rc =
+      sqlite3_wal_checkpoint_v2(db.get(), nullptr, SQLITE_CHECKPOINT_PASSIVE, &log_frames, &copied_frames);
+  const double checkpoint_us = std::chrono::duration<double, std::micro>(Clock::now() - now).count();
+  checkpointed = Clock::now();
+  checkpoint_t = last_t;
+  if ((rc != SQLITE_OK || copied_frames < log_frames) && !warned_checkpoint) {
+    spdlog::warn("recorder: {}: checkpoint incomplete ({} of {} WAL frames copied): {}", file.string(),
+                 copied_frames, log_frames, rc == SQLITE_OK ? "a reader holds the WAL" : db.message());
+    warned_checkpoint = true;
   }
+  std::lock_guard lock(status_mutex);
+  ++status.checkpoints;
+  status.max_checkpoint_us = std::max(status.max_checkpoint_us, checkpoint_us);
 }
 
 // A failure ends the writing (the committed prefix stays valid): roll back, log once, and publish
@@ -392,19 +403,11 @@ void Recorder::start() {
   if (impl_->started || impl_->closed) return;
   impl_->started = true;
   impl_->writer = std::thread([this] { impl_->run(*queue_, written_); });
-  impl_->checkpointer = std::thread([this] { impl_->run_checkpoints(); });
 }
 
 void Recorder::stop() {
   if (!impl_ || impl_->closed) return;
   if (!impl_->started) start();
-  // The checkpointer first, so the writer's final checkpoint has the file to itself.
-  {
-    std::lock_guard lock(impl_->checkpoint_mutex);
-    impl_->checkpoint_stop = true;
-  }
-  impl_->checkpoint_wake.notify_all();
-  if (impl_->checkpointer.joinable()) impl_->checkpointer.join();
   impl_->stop_requested.store(true, std::memory_order_release);
   if (impl_->writer.joinable()) impl_->writer.join();
   impl_->closed = true;

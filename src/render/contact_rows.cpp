@@ -37,6 +37,28 @@ PairGroup* group_of(ContactRowScratch& sc, const PairRef& p, const Region& reg, 
   return nullptr;  // a third object for this tool leaf: its rows are not deduplicated
 }
 
+// A healthy leaf's patch on a lesion's wall is the surface of its part, not of the tooth: inside
+// tissue as firm as the part's own, the tool meets no wall there. So a pair measured against such a
+// patch makes no row when the lesion behind the wall (of those the part hosts, the one whose boundary
+// passes nearest the patch's tangent point) is at least as stiff as the part. The wall stays where the
+// caries is softer, where a tip sunk in it catches (paper §4.2.1, Fig. 12).
+bool internal_between_equals(const Model& m, const Params& params, const PairSet& pairs, int i) {
+  const PairGeometry& geo = pairs.geometry[i];
+  if (!geo.internal) return false;
+  const PairRef& p = pairs.refs[i];
+  const SphereNode& node = m.objects[p.object].tree.nodes[p.object_node];
+  const Vec3 tangent_point = node.center.cast<double>() + double(node.radius) * geo.normal;
+  int behind = -1;
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < m.lesions.size(); ++k) {
+    if (m.lesions[k].host != static_cast<int>(p.object)) continue;
+    const double d = std::abs(m.lesions[k].shape.distance(tangent_point));
+    if (d < nearest) nearest = d, behind = static_cast<int>(k);
+  }
+  return behind >= 0 && params.materials[m.lesions[static_cast<std::size_t>(behind)].material].stiffness >=
+                            params.materials[node.material].stiffness;
+}
+
 }  // namespace
 
 ContactRowScratch::ContactRowScratch(const ModelConstants& k) : leaf_groups(2 * k.tool_leaves) {}
@@ -83,7 +105,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
     const PairGeometry& geo = pairs.geometry[i];
     PairGroup* group = group_of(sc, p, reg, r);
     if (reg.compliant) {
-      if (group == nullptr) continue;
+      if (group == nullptr || internal_between_equals(m, params, pairs, i)) continue;
       int similar = -1;
       for (int e = 0; e < group->count && similar < 0; ++e)
         if (pairs.geometry[group->pairs[e]].normal.dot(geo.normal) > kCompliantNormalCos) similar = e;

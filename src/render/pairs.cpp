@@ -61,6 +61,7 @@ PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g
         out.normal = n_s;
         out.gap = best_h - r_o - r_t;
         out.lateral = lateral;
+        out.internal = ((t.wall_mask >> best) & 1u) != 0;
         return out;
       }
     }

@@ -106,6 +106,8 @@ struct PairGeometry {
   /// sideways from the leaf's tangent point; +infinity for a sphere-against-sphere measure.
   double lateral = std::numeric_limits<double>::infinity();
   bool wall = false;  ///< a caries leaf with only wall patches (its interface with healthy tissue)
+  /// Measured against a tangent on an internal boundary: a healthy leaf's patch on a lesion's wall.
+  bool internal = false;
 };
 
 /// The collision stage's output: the pairs the rows of one sub-step are made of, each with its
@@ -169,6 +171,9 @@ struct Region {
   int16_t pair = -1;  ///< the deepest pair, which founded the region
   bool compliant = false;
   bool tip = false;  ///< one of its tool leaves lies within the tip region
+  /// mm, sideways distance of the founding tool leaf from the patch of the part the region is
+  /// attributed to (`object`, `material`); +infinity when measured sphere against sphere.
+  double lateral = std::numeric_limits<double>::infinity();
 };
 
 /// The regions stage's output.

@@ -179,8 +179,9 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   StateImpl& s = state.impl();
   StepTrace trace;
 
-  // Input checks: a non-finite pose reuses the last good one; a jump beyond max_jump is flagged (the
-  // sub-step budget then limits how far the graphic tool follows in this cycle).
+  // Input checks: a non-finite pose reuses the last good one; a jump beyond max_jump, or a turn beyond
+  // max_jump_rotation, is flagged (the sub-step budget then limits how far the graphic tool follows
+  // in this cycle).
   Pose haptic = in.pose;
   if (!(haptic.p.allFinite() && haptic.q.coeffs().allFinite() && haptic.q.norm() > 0.5)) {
     trace.flags |= kFlagNonFiniteInput;
@@ -188,7 +189,8 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   }
   haptic.q.normalize();
   const double dt = std::isfinite(in.dt) && in.dt > 0.0 && in.dt <= 0.1 ? in.dt : 1.0 / m.servo_rate;
-  if (s.have_haptic && (haptic.p - s.last_haptic.p).norm() > m.settings.max_jump)
+  if (s.have_haptic && ((haptic.p - s.last_haptic.p).norm() > m.settings.max_jump ||
+                        haptic.q.angularDistance(s.last_haptic.q) > m.settings.max_jump_rotation))
     trace.flags |= kFlagJumpLimited;
 
   // The interaction state machine (paper Fig. 4).

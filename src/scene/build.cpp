@@ -125,7 +125,7 @@ void add_lesion(BuildKey& key, const LesionShape& s) {
 // to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
 constexpr double kDisplayAdaptivity = 0.1;
 // Bumped whenever the tree builders or the part building change what a cached part holds.
-constexpr int64_t kPartVersion = 5;
+constexpr int64_t kPartVersion = 8;
 
 // Adds tree parameters and the authored voxel (-1: chosen from the surface and parameters) to a key.
 void add_tree(BuildKey& key, const TreeParams& p, double voxel) {
@@ -196,6 +196,8 @@ struct ObjectBuild {
   std::optional<LevelSetResolution> res;  // voxel and band of every level set of this object
   std::optional<LevelSet> object_ls;
   std::vector<LevelSet> lesion_ls;
+  // Seam leaves per part ([0] healthy, [1 + k] the k-th lesion's caries), made with the first part.
+  std::optional<std::vector<std::vector<LeafSphere>>> seam;
 
   // The object's surface in the world.
   const TriangleMesh& world_mesh() {
@@ -307,6 +309,14 @@ CachedPart build_part(ObjectBuild& b, int part, int lesion, const SceneDesc& sce
     built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
+  }
+  // A cut object: each part also gets the seam leaves on its side of the cuts (issue #10), so that
+  // the parts' union follows the uncut surface across every lesion's border.
+  if (!b.lesions.empty() && b.params.mode == TreeMode::Tight && !built.tree.empty()) {
+    if (!b.seam)
+      b.seam = build_seam_leaves(*b.object_ls, b.shapes, b.params, {}, part_progress(options, name));
+    built.tree = add_seam_leaves(built.tree, (*b.seam)[static_cast<std::size_t>(part + 1)], *b.object_ls,
+                                 b.shapes, b.params);
   }
   if (built.tree.empty()) {
     if (lesion >= 0) {
@@ -458,6 +468,22 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
     report(options.progress, name, 1.0);
     report(options.progress, "scene",
            static_cast<double>(out.parts.size()) / static_cast<double>(part_total));
+  }
+
+  // Seam deviation (on request): every part of the object together against its uncut surface, on a
+  // band around each lesion's border.
+  if (options.measure_deviation && !b.lesions.empty()) {
+    make_level_sets(b);
+    std::vector<const SphereTree*> trees;
+    for (std::size_t k = 0; k <= b.lesions.size(); ++k)
+      trees.push_back(&model.objects[static_cast<std::size_t>(healthy_index) + k].tree);
+    const std::size_t first_report = out.parts.size() - b.lesions.size();
+    for (std::size_t k = 0; k < b.lesions.size(); ++k) {
+      const LesionShape& shape = b.shapes[k];
+      out.parts[first_report + k].seam_deviation = measure_seam_deviation(
+          trees, b.world_mesh(), *b.object_ls, [&shape](const Vec3& x) { return shape.distance(x); },
+          kSeamBandHalfWidth, options.deviation_samples);
+    }
   }
 }
 

@@ -11,8 +11,10 @@
 #include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/geometry/procedural.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "yaml_reader.hpp"
 
@@ -28,6 +30,10 @@ namespace {
 constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a scene
 constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
 constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
+constexpr double kMinCuboidEdge = 0.01;     // mm, thinnest cuboid edge (make_cuboid takes 0.001)
+// Hz, the real-time servo loop's limit (servo/servo.hpp kMaxServoRate, DESIGN.md §5: up to 10 kHz);
+// a scene asking for more passed `scene check` and then failed in `cariesim servo`.
+constexpr double kMaxSceneServoRate = 10000.0;
 // A mesh file named with this prefix lies in the shipped data folder (data_directory()).
 constexpr std::string_view kDataPrefix = "data:";
 constexpr double kDefaultCariesStiffness = 4.0;  // N/mm, sliding stiffness of caries without a preset
@@ -86,6 +92,9 @@ ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string&
       const std::filesystem::path base = in_data ? data_directory() : base_dir;
       s.file = (given.is_absolute() ? given : base / given).lexically_normal();
       std::error_code ec;
+      if (std::filesystem::is_directory(s.file, ec)) {
+        r.fail(file, f.sub("file"), fmt::format("{} is a directory, not a mesh file", s.file.string()));
+      }
       if (!std::filesystem::is_regular_file(s.file, ec)) {
         r.fail(file, f.sub("file"),
                in_data ? fmt::format("mesh file not found: {} ('{}' in the data folder {}; set "
@@ -178,6 +187,29 @@ double read_stiffness(const Reader& r, const YAML::Node& node, const std::string
     }
   }
   return r.positive(node, path, kMaxStiffness, "N/mm");
+}
+
+// A cuboid the builder would turn into an empty tree is refused here, so `scene check` and the build
+// agree: a tight tree needs at least two level-set voxels across the thinnest edge (the voxel the
+// builder picks, choose_resolution, or the tree's `voxel`).
+void check_cuboid_fits_its_tree(const Reader& r, const Fields& f, const ObjectDesc& o) {
+  if (o.shape.kind != ShapeDesc::Kind::Cuboid) return;
+  const YAML::Node size = f.get("shape")["size"];
+  const std::string where = f.sub("shape.size");
+  const double thinnest = o.shape.size.minCoeff();  // mm
+  if (thinnest < kMinCuboidEdge)
+    r.fail(size, where,
+           fmt::format("edge {:g} mm is below the smallest a cuboid may have, {:g} mm", thinnest,
+                       kMinCuboidEdge));
+  if (o.tree.params.mode != TreeMode::Tight) return;
+  const double voxel =
+      o.tree.voxel ? *o.tree.voxel : choose_resolution(make_cuboid(o.shape.size), o.tree.params).voxel;
+  if (thinnest < 2.0 * voxel)
+    r.fail(size, where,
+           fmt::format(
+               "edge {:g} mm is thinner than two level-set voxels of its tight tree (2 x {:g} mm): the tree "
+               "would be empty; make the object larger, or lower tree.tolerance or tree.voxel",
+               thinnest, voxel));
 }
 
 // An object's tree settings.
@@ -278,6 +310,7 @@ ObjectDesc read_object(const Reader& r, const YAML::Node& node, const std::strin
     o.enamel_thickness = r.positive(n, f.sub("enamel_thickness"), 10.0, "mm");
   }
   if (const auto n = f.get("tree"); n.IsDefined()) o.tree = read_tree(r, n, f.sub("tree"));
+  check_cuboid_fits_its_tree(r, f, o);
   return o;
 }
 
@@ -648,7 +681,7 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
       c.positive("k_rot", scene.gains.k_rot, 1e6, "N·mm/rad");
     }
     if (const auto n = f.get("servo_rate"); n.IsDefined()) {
-      scene.servo_rate = r.number_in(n, "servo_rate", 100.0, 20000.0, "Hz");
+      scene.servo_rate = r.number_in(n, "servo_rate", 100.0, kMaxSceneServoRate, "Hz");
     }
     check_scene(r, root, scene);
   } catch (const YAML::Exception& e) {

@@ -1,11 +1,14 @@
 // A session: device, servo loop and recorder built, started and stopped together (servo/session.hpp).
 #include "cariesim/servo/session.hpp"
 
+#include <fmt/format.h>
+
 #include <utility>
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/experiment/json.hpp"
+#include "cariesim/record/replay.hpp"
 #include "cariesim/servo/device_factory.hpp"
 
 namespace cariesim {
@@ -102,6 +105,15 @@ Session::Session(const Model& model, std::unique_ptr<Device> device, const Sessi
   info_.rate_hz = rate;
   info_.parameters = params_json(model, start);
   info_.started_at = utc_now_iso8601();
+
+  // A replayed recording made on another scene: its poses meet other geometry.
+  if (const auto* replay = dynamic_cast<const ReplayDevice*>(device_.get())) {
+    const SessionInfo& recorded = replay->session();
+    if (recorded.scene_hash != model.scene_hash)
+      warning_ = "the replayed recording was made on scene '" + recorded.scene + "' (hash " +
+                 fmt::format("{:016x}", recorded.scene_hash) + "), not on this one, '" + options.scene +
+                 "' (hash " + fmt::format("{:016x}", model.scene_hash) + "): its poses meet other geometry";
+  }
 
   // The recorder (it creates the file now), then the loop that feeds it.
   if (!options.record.empty())

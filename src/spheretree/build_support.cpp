@@ -71,6 +71,56 @@ std::vector<Vec3> sample_surface_stratified(const TriangleMesh& mesh, double den
   return out;
 }
 
+std::vector<Vec3> sample_surface_band(const TriangleMesh& mesh,
+                                      const std::function<double(const Vec3&)>& band, double half_width,
+                                      std::size_t count, uint64_t seed) {
+  std::vector<Vec3> out;
+  if (mesh.triangles.empty() || count == 0) return out;
+  // Triangles that may reach the band: |band| is 1-Lipschitz, so a triangle whose centroid lies
+  // further from the band than the triangle's circumradius cannot.
+  struct Candidate {
+    Vec3 a, b, c;
+    double area;
+  };
+  std::vector<Candidate> candidates;
+  for (const auto& t : mesh.triangles) {
+    Candidate k{mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(),
+                mesh.vertices[t[2]].cast<double>(), 0.0};
+    k.area = 0.5 * (k.b - k.a).cross(k.c - k.a).norm();
+    const Vec3 centroid = (k.a + k.b + k.c) / 3.0;
+    const double reach =
+        std::max({(k.a - centroid).norm(), (k.b - centroid).norm(), (k.c - centroid).norm()});
+    if (k.area > 0.0 && std::abs(band(centroid)) <= half_width + reach) candidates.push_back(k);
+  }
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto point_in = [&](const Candidate& k) {
+    const double u = std::sqrt(unit(rng));
+    const double v = unit(rng);
+    return Vec3((1.0 - u) * k.a + u * (1.0 - v) * k.b + u * v * k.c);
+  };
+  // The band's area, from a coarse pass (at least 16 points per candidate triangle).
+  constexpr double kProbeDensity = 16.0;  // points per mm^2
+  double band_area = 0.0;
+  for (const Candidate& k : candidates) {
+    const int n = std::max(16, static_cast<int>(std::ceil(k.area * kProbeDensity)));
+    int in = 0;
+    for (int i = 0; i < n; ++i) in += std::abs(band(point_in(k))) <= half_width ? 1 : 0;
+    band_area += k.area * in / n;
+  }
+  if (!(band_area > 0.0)) return out;
+  // The density that puts about `count` points in the band.
+  const double density = static_cast<double>(count) / band_area;
+  for (const Candidate& k : candidates) {
+    const auto n = static_cast<std::size_t>(std::floor(k.area * density + unit(rng)));
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 p = point_in(k);
+      if (std::abs(band(p)) <= half_width) out.push_back(p);
+    }
+  }
+  return out;
+}
+
 // The coarse fallback: the fine field sampled on coarse voxels over the whole box (exact near the
 // surface, clamped deeper), meshed (volumeToMesh), and that light mesh turned back into a level set
 // whose bands reach the needed distances (meshToVolume computes exact distances to the mesh).

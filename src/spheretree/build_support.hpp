@@ -5,6 +5,7 @@
 #include <openvdb/tools/PointIndexGrid.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -27,6 +28,12 @@ std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, ui
 /// About `density` points per mm^2, stratified by triangle (each gets floor(area * density + u),
 /// u uniform in [0, 1)), so the points come out grouped triangle by triangle (seeded, deterministic).
 std::vector<Vec3> sample_surface_stratified(const TriangleMesh& mesh, double density, uint64_t seed);
+
+/// About `count` points distributed uniformly by area over the part of the mesh where |band(x)| <=
+/// `half_width` (mm); `band` must be 1-Lipschitz (a signed distance). Seeded, deterministic.
+std::vector<Vec3> sample_surface_band(const TriangleMesh& mesh,
+                                      const std::function<double(const Vec3&)>& band, double half_width,
+                                      std::size_t count, uint64_t seed);
 
 /// Signed distance of a level set's zero set, negative inside. Within the narrow band it is the level
 /// set's trilinear value; where that saturates it falls back on a coarser level set of the same

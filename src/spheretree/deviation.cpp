@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -66,6 +68,30 @@ double quantile(std::vector<double>& values, double q) {
   return values[k];
 }
 
+// Pools |sample distance| with the positive poke-outs, then the percentiles.
+Deviation pooled(const std::vector<double>& to_union, const std::vector<double>& poke) {
+  Deviation dev;
+  dev.samples = to_union.size();
+  std::vector<double> pool;
+  pool.reserve(to_union.size() + poke.size());
+  for (double d : to_union) {
+    pool.push_back(std::abs(d));
+    dev.max_fall_short = std::max(dev.max_fall_short, d);
+    dev.max_poke_out = std::max(dev.max_poke_out, -d);
+  }
+  for (double p : poke) {
+    if (p > 0.0) {
+      pool.push_back(p);
+      dev.max_poke_out = std::max(dev.max_poke_out, p);
+    }
+  }
+  if (pool.empty()) return dev;
+  dev.max = *std::max_element(pool.begin(), pool.end());
+  dev.p95 = quantile(pool, 0.95);
+  dev.p50 = quantile(pool, 0.50);
+  return dev;
+}
+
 }  // namespace
 
 Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface, const LevelSet& shape,
@@ -101,26 +127,53 @@ Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface,
                       }
                     });
 
-  // Pool |sample distance| with the positive poke-outs, then the percentiles.
-  Deviation dev;
-  dev.samples = points.size();
-  std::vector<double> pool;
-  pool.reserve(points.size() + poke.size());
-  for (double d : to_union) {
-    pool.push_back(std::abs(d));
-    dev.max_fall_short = std::max(dev.max_fall_short, d);
-    dev.max_poke_out = std::max(dev.max_poke_out, -d);
-  }
-  for (double p : poke) {
-    if (p > 0.0) {
-      pool.push_back(p);
-      dev.max_poke_out = std::max(dev.max_poke_out, p);
+  return pooled(to_union, poke);
+}
+
+Deviation measure_seam_deviation(std::span<const SphereTree* const> parts, const TriangleMesh& surface,
+                                 const LevelSet& shape, const std::function<double(const Vec3&)>& border,
+                                 double half_width_mm, std::size_t samples, uint64_t seed) {
+  if (parts.empty()) throw Error("measure_seam_deviation: no parts");
+  for (const SphereTree* tree : parts)
+    if (tree == nullptr || tree->leaf_nodes.empty())
+      throw Error("measure_seam_deviation: a part has no leaves");
+  if (surface.triangles.empty()) throw Error("measure_seam_deviation: the surface mesh has no triangles");
+  if (shape.empty()) throw Error("measure_seam_deviation: the level set is empty");
+  if (samples == 0) throw Error("measure_seam_deviation: at least one surface sample is needed");
+
+  // Surface side: samples on the band, each against the union of every part's leaves.
+  const std::vector<Vec3> points = detail::sample_surface_band(surface, border, half_width_mm, samples, seed);
+  std::vector<double> to_union(points.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<uint32_t> stack;
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        double best = std::numeric_limits<double>::infinity();
+                        for (const SphereTree* tree : parts)
+                          best = std::min(best, distance_to_union(*tree, points[i].cast<float>(), stack));
+                        to_union[i] = best;
+                      }
+                    });
+
+  // Leaf side: poke-out beyond the object's surface of every leaf that may reach the band.
+  const detail::DistanceField field(shape, 0.0, 0.0);
+  std::vector<double> poke;
+  detail::DistanceField::Probe probe(field);
+  for (const SphereTree* tree : parts) {
+    for (const uint32_t index : tree->leaf_nodes) {
+      // A leaf pokes out in a cap around its apex toward the nearest surface (c + r g, g the distance's
+      // gradient): counted when that cap reaches the band.
+      const SphereNode& node = tree->nodes[index];
+      const Vec3 c = node.center.cast<double>();
+      const double d = probe.distance(c);
+      const double out = node.radius + d;
+      if (!(out > 0.0) || std::abs(d) >= field.reliable_band()) continue;
+      const Vec3 apex = c + double(node.radius) * probe.gradient(c);
+      if (std::abs(border(apex)) <= half_width_mm + std::sqrt(2.0 * node.radius * out)) poke.push_back(out);
     }
   }
-  dev.max = *std::max_element(pool.begin(), pool.end());
-  dev.p95 = quantile(pool, 0.95);
-  dev.p50 = quantile(pool, 0.50);
-  return dev;
+  if (points.empty() && poke.empty()) throw Error("measure_seam_deviation: the band holds no surface");
+  return pooled(to_union, poke);
 }
 
 // Walks the tree from the root: every node reached once, children contiguous and after their parent,

@@ -165,6 +165,10 @@ assert names == ["block/healthy", "block/pit"], names
 for p in d["parts"]:
     assert p["leaves"] > 0 and p["levels"] >= 1
     assert p["deviation_mm"]["max"] >= p["deviation_mm"]["p95"]
+healthy, pit = d["parts"]
+assert "seam_deviation_mm" not in healthy, healthy
+seam = pit["seam_deviation_mm"]
+assert seam["band_mm"] == 0.5 and 0 <= seam["p50"] <= seam["p95"] <= seam["max"] and seam["samples"] > 0, seam
 print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
 )";
   const Result first = run("tree '" + scene.string() + "' --json");
@@ -177,7 +181,8 @@ print("hit" if all(p["cache_hit"] for p in d["parts"]) else "cold")
   const Result fast = run("tree '" + scene.string() + "' --json --quiet --no-deviation");
   ASSERT_EQ(fast.status, 0) << fast.err;
   EXPECT_THAT(python_json(fast.out, R"(
-assert all("deviation_mm" not in p and p["cache_hit"] and p["leaves"] > 0 for p in d["parts"]), d
+assert all("deviation_mm" not in p and "seam_deviation_mm" not in p and p["cache_hit"] and p["leaves"] > 0
+           for p in d["parts"]), d
 print("no deviation")
 )"),
               HasSubstr("no deviation"));
@@ -185,6 +190,7 @@ print("no deviation")
   ASSERT_EQ(text.status, 0) << text.err;
   EXPECT_THAT(text.out, HasSubstr("block/pit"));
   EXPECT_THAT(text.out, HasSubstr("deviation mm: p50"));
+  EXPECT_THAT(text.out, HasSubstr("seam deviation mm (all parts, +/-0.5 mm around the border): p50"));
 }
 
 TEST_F(CliTest, TreeRejectsABadMesh) {

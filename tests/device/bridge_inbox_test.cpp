@@ -128,6 +128,81 @@ TEST_F(Inbox, AHelloStartsANewSession) {
   EXPECT_EQ(inbox.counters().sessions, 2u);
 }
 
+// Issue #14 item 6: one packet whose client time is 0.2 s ahead used to lower the clock offset, so
+// every following packet looked 0.2 s late (Stale) until the session timed out: about 2 s without
+// force. Now it is accepted without moving the offset and the stream goes on.
+TEST_F(Inbox, OneClientTimeAheadDoesNotStallTheStream) {
+  uint32_t seq = 0;
+  for (int i = 0; i < 20; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose);
+  }
+  EXPECT_EQ(send(pose(seq++, kOffset + 0.020 + 0.2), 0.0202), BridgeVerdict::AcceptedPose);
+  for (int i = 21; i < 200; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose) << "packet " << i;
+  }
+  EXPECT_EQ(inbox.counters().rejected(), 0u);
+}
+
+// A sequence number leaping 2^31 - 1 ahead used to be believed, and every following packet was then
+// OutOfOrder until the session timed out. Now the leap is rejected and the stream goes on.
+TEST_F(Inbox, OneSequenceLeapDoesNotStallTheStream) {
+  uint32_t seq = 100;
+  for (int i = 0; i < 20; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose);
+  }
+  EXPECT_EQ(send(pose(seq + 0x7fffffffu, kOffset + 0.020), 0.0202), BridgeVerdict::OutOfOrder);
+  EXPECT_EQ(send(pose(seq + 0x80000000u, kOffset + 0.0205), 0.0207), BridgeVerdict::OutOfOrder);
+  for (int i = 21; i < 200; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose) << "packet " << i;
+  }
+  EXPECT_EQ(inbox.counters().resyncs, 0u);
+}
+
+// A client whose counter really jumped by 2^31 (restarted without a hello) is followed after three
+// packets that agree with each other, instead of being refused until the session times out.
+TEST_F(Inbox, ASequenceThatReallyJumpedIsFollowed) {
+  uint32_t seq = 5;
+  for (int i = 0; i < 20; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose);
+  }
+  seq += 0x80000000u;
+  EXPECT_EQ(send(pose(seq++, kOffset + 0.020), 0.0202), BridgeVerdict::OutOfOrder);
+  EXPECT_EQ(send(pose(seq++, kOffset + 0.021), 0.0212), BridgeVerdict::OutOfOrder);
+  EXPECT_EQ(send(pose(seq++, kOffset + 0.022), 0.0222), BridgeVerdict::AcceptedPose);
+  for (int i = 23; i < 100; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose) << "packet " << i;
+  }
+  EXPECT_EQ(inbox.counters().resyncs, 1u);
+  EXPECT_EQ(inbox.counters().sessions, 1u);
+}
+
+// A client clock that steps back 0.2 s makes every packet look late: rejected for a little over the
+// timeout (a transient delay stays rejected), then followed. Before: about 1 s (the session timeout).
+TEST_F(Inbox, AClockThatSteppedBackIsFollowedAfterTheTimeout) {
+  uint32_t seq = 0;
+  for (int i = 0; i < 20; ++i) {
+    const double t = 0.001 * i;
+    ASSERT_EQ(send(pose(seq++, kOffset + t), t + 0.0002), BridgeVerdict::AcceptedPose);
+  }
+  int rejected = 0;
+  for (int i = 20; i < 300; ++i) {
+    const double t = 0.001 * i;
+    if (send(pose(seq++, kOffset + t - 0.2), t + 0.0002) != BridgeVerdict::AcceptedPose) {
+      ++rejected;
+      ASSERT_LT(i, 100) << "still rejected " << (i - 20) << " ms after the step";
+    }
+  }
+  EXPECT_GE(rejected, 40);
+  EXPECT_LE(rejected, 60);
+  EXPECT_EQ(inbox.counters().resyncs, 1u);
+}
+
 TEST_F(Inbox, CountsEveryParseRejection) {
   const Bytes good = pose(1, kOffset);
   Bytes truncated(good.begin(), good.begin() + 20);

@@ -175,6 +175,30 @@ TEST(ForceSafety, AJumpIsAFaultForOneReading) {
   EXPECT_EQ(safety.flags(), static_cast<uint32_t>(kSafetyJump));
 }
 
+// Issue #14 item 6: a 180-degree turn between two readings is a jump like a 100 mm move (it used to
+// pass, and the step rendered 463 N·mm at once with no flag).
+TEST(ForceSafety, ATurnIsAFaultLikeAJump) {
+  ForceSafety safety(no_ramp());
+  Vec3 f(0, 0, 3), t(0, 0, 40);
+  safety.filter(f, t, reading(0.0), 0.0);
+  EXPECT_DOUBLE_EQ(t.z(), 40.0);
+  DeviceState turned = reading(0.001);
+  turned.pose.q = Quat(Eigen::AngleAxisd(M_PI, Vec3::UnitX()));
+  f = Vec3(0, 0, 3);
+  t = Vec3(0, 0, 40);
+  safety.filter(f, t, turned, 0.001);
+  EXPECT_TRUE(f.isZero());
+  EXPECT_TRUE(t.isZero());
+  EXPECT_EQ(safety.flags(), static_cast<uint32_t>(kSafetyJump));
+  // Turning on slowly from there (0.01 rad per reading) is fine.
+  DeviceState on = reading(0.002);
+  on.pose.q = turned.pose.q * Quat(Eigen::AngleAxisd(0.01, Vec3::UnitY()));
+  t = Vec3(0, 0, 40);
+  safety.filter(f, t, on, 0.002);
+  EXPECT_DOUBLE_EQ(t.z(), 40.0);
+  EXPECT_EQ(safety.flags(), 0u);
+}
+
 TEST(ForceSafety, OutOfRangeParametersAreMadeSafe) {
   SafetyParams p;
   p.stale_after = -5.0;

@@ -2,11 +2,13 @@
 // and exported as CSV; the CSV is parsed again and every field compared with what was pushed.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <thread>
 
@@ -14,6 +16,7 @@
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/trajectory.hpp"
 #include "record/record_support.hpp"
+#include "support/files.hpp"
 
 namespace cariesim {
 namespace {
@@ -274,6 +277,46 @@ TEST(Export, UnreadableInputsThrowNamingTheFile) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("not a cariesim recording"));
   }
+}
+
+// Issue #14 item 3: an export that fails part way (here a recording whose samples table is gone)
+// used to have truncated the earlier good export's files already (samples.csv, trajectory.csv). It
+// now writes into a staging folder and moves the files into place only when all are complete.
+TEST(Export, AFailedExportLeavesAnEarlierOneAsItWas) {
+  test::ScratchDir dir("export_atomic");
+  const auto good = dir / "good.db";
+  const auto broken = dir / "broken.db";
+  for (const auto& file : {good, broken}) {
+    Recorder recorder(file, test::synthetic_session(1000.0));
+    for (std::size_t i = 0; i < 300; ++i)
+      ASSERT_TRUE(recorder.queue().push(test::synthetic_sample(i, 1000.0)));
+    recorder.start();
+    recorder.stop();
+  }
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(broken.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE samples", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  const auto out = dir / "export";
+  const ExportSummary first = export_recording_csv(good, out);
+  ASSERT_EQ(first.samples, 300u);
+  std::map<std::string, std::string> before;
+  for (const auto& f : first.files) before[f.filename().string()] = test::read_text(f);
+  EXPECT_THROW(export_recording_csv(broken, out), Error);
+  for (const auto& [name, text] : before) EXPECT_EQ(test::read_text(out / name), text) << name;
+  // Nothing is left behind but the export itself.
+  std::size_t entries = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    (void)entry;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 3u) << "good.db, broken.db, export";
+  // Exporting into a new folder by a relative path with a trailing slash works too.
+  const ExportSummary fresh = export_recording_csv(good, (dir / "fresh/").string());
+  EXPECT_EQ(fresh.files.front().parent_path(), (dir / "fresh"));
+  EXPECT_EQ(test::read_text(dir / "fresh" / "samples.csv"), before["samples.csv"]);
 }
 
 }  // namespace

@@ -122,6 +122,21 @@ TEST(Step, JumpIsFlaggedBoundedAndDoesNotPenetrate) {
   EXPECT_NEAR(out.force.norm(), m.defaults.limits.max_force, 1e-9);
 }
 
+// Issue #14 item 6: a 180-degree turn in one step is flagged like a jump (it was not).
+TEST(Step, TurnIsFlaggedLikeAJump) {
+  const Model m = rigid_slab();
+  State s(m, probe_at(Vec3(0, 0, 1)));
+  run(m, s, probe_at(Vec3(0, 0, 1)), 2);
+  Pose turned = probe_at(Vec3(0, 0, 1));
+  turned.q = Quat(Eigen::AngleAxisd(M_PI, Vec3::UnitX())) * turned.q;
+  StepOutput out = step(m, s, HapticInput{turned, 0.001});
+  EXPECT_TRUE(out.flags & kFlagJumpLimited);
+  EXPECT_TRUE(out.torque.allFinite());
+  EXPECT_LE(out.torque.norm(), m.defaults.limits.max_torque + 1e-9);
+  out = step(m, s, HapticInput{turned, 0.001});
+  EXPECT_FALSE(out.flags & kFlagJumpLimited) << "holding the turned pose is no jump";
+}
+
 // A wedge: the tool squeezed between two rigid walls closing in from both sides, pushed down into
 // the gap. Contradictory constraints must give a finite, bounded output and no penetration.
 TEST(Step, WedgeStaysFiniteAndOutsideRigidTissue) {

@@ -8,6 +8,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 namespace {
@@ -97,6 +98,66 @@ TEST(SceneParserFuzz, MutatedBuiltInsParseOrThrowError) {
   // Both outcomes occur: the mutations neither always break nor never break the scenes.
   EXPECT_GT(parsed, 0u);
   EXPECT_GT(rejected, 0u);
+}
+
+// The adversarial inputs of issue #14 (items 2, 9) stay answered: each is refused with a message
+// located in the file, or parsed when it is valid (mu_d above mu_s is defined, docs/scene-format.md).
+TEST(SceneParserFuzz, Issue14InputsAreRefusedWhereTheyAre) {
+  const std::string block = "objects:\n  - name: b\n    shape: {type: cuboid, size: [4, 4, 4]}\n";
+  const struct {
+    std::string yaml;
+    std::string message;  // empty: it parses
+  } cases[] = {
+      {block + "servo_rate: 20000\n", "fuzz.yaml:4:13: servo_rate: 20000 is out of range [100, 10000] Hz"},
+      {block + "servo_rate: .nan\n", "fuzz.yaml:4:13: servo_rate"},
+      {"objects:\n  - name: b\n    shape: {type: cuboid, size: [1e-6, 1, 1]}\n", "edge 1e-06 mm is below"},
+      {"objects:\n  - name: b\n    shape: {type: cuboid, size: [0.02, 4, 4]}\n", "two level-set voxels"},
+      {"objects:\n  - name: b\n    shape: {type: mesh, file: .}\n", "is a directory, not a mesh file"},
+      {block + "lesions:\n  - {name: l, object: b, placement: {at: [0, 0, 2], normal: [0, 0, 1]},\n"
+               "     shape: {type: disk, size: 1, depth: 0.5}, material: {mu_s: 0.1, mu_d: 0.9}}\n",
+       ""},
+  };
+  for (const auto& c : cases) {
+    try {
+      (void)parse_scene(c.yaml, "fuzz.yaml");
+      EXPECT_TRUE(c.message.empty()) << "parsed:\n" << c.yaml;
+    } catch (const Error& e) {
+      EXPECT_FALSE(c.message.empty()) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind("fuzz.yaml:", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Random edits of a trajectory file parse or throw cariesim::Error located in it; and the issue #14
+// trajectory inputs (a byte order mark, non-unit quaternions, absurd times) are answered.
+TEST(TrajectoryParserFuzz, MutatedTrajectoriesParseOrThrowError) {
+  const std::string base =
+      "t,px,py,pz,qw,qx,qy,qz\n0,-25,0,10,1,0,0,0\n0.5,-24,0,9,0.7071068,0,0.7071068,0\n1,-23,0,8,0,0,1,0\n";
+  std::mt19937_64 rng(14);
+  std::size_t parsed = 0, rejected = 0;
+  for (int round = 0; round < 3000; ++round) {
+    std::string text = base;
+    const int edits = std::uniform_int_distribution<int>(1, 3)(rng);
+    for (int e = 0; e < edits; ++e) text = mutate(text, rng);
+    try {
+      const Trajectory t = parse_trajectory_csv(text, "fuzz.csv");
+      for (const Pose& p : t.pose) ASSERT_NEAR(p.q.norm(), 1.0, 1e-12) << text;
+      ++parsed;
+    } catch (const Error& e) {
+      ASSERT_EQ(std::string(e.what()).rfind("fuzz.csv", 0), 0u) << e.what();
+      ++rejected;
+    } catch (const std::exception& e) {
+      FAIL() << "round " << round << ": non-Error exception: " << e.what() << "\n" << text;
+    }
+  }
+  EXPECT_GT(parsed, 0u);
+  EXPECT_GT(rejected, 0u);
+  EXPECT_EQ(parse_trajectory_csv("\xEF\xBB\xBF" + base, "fuzz.csv").t.size(), 3u);
+  EXPECT_THROW(parse_trajectory_csv("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,3,0,0,0\n", "fuzz.csv"), Error);
+  EXPECT_THROW(
+      parse_trajectory_csv("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1e400,0,0,0,1,0,0,0\n", "fuzz.csv"),
+      Error);
 }
 
 }  // namespace

@@ -279,7 +279,7 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
   EXPECT_THAT(error_of(std::string(kMinimal) + "    fdi: 30\n"),
               HasSubstr("objects[0].fdi: 30 is not an FDI tooth number"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 1e9\n"),
-              HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 20000] Hz"));
+              HasSubstr("test.yaml:4:13: servo_rate: 1000000000 is out of range [100, 10000] Hz"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tree: {min_radius: 2, max_radius: 1}\n"),
               HasSubstr("objects[0].tree.min_radius: 2 mm must be below max_radius (1 mm)"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    tissue: gingiva\n    material: {stiffness: rigid}\n"),
@@ -294,6 +294,37 @@ TEST(ParseSceneErrors, OutOfRangeValues) {
               HasSubstr("objects[0].tree.depth: expected an integer, got '4.5'"));
   EXPECT_THAT(error_of(std::string(kMinimal) + "    pose: {position: ['1', 0, 0]}\n"),
               HasSubstr("objects[0].pose.position[0]: expected a number"));
+}
+
+// Issue #14 item 9: `scene check` said ok to scenes the builder or the servo loop then refused.
+TEST(SceneParse, WhatTheBuilderAndTheServoLoopRefuseIsRefusedHere) {
+  // servo_rate 20000 passed the check and failed in `cariesim servo` (at most 10 kHz).
+  EXPECT_THAT(error_of(std::string(kMinimal) + "servo_rate: 20000\n"),
+              HasSubstr("test.yaml:4:13: servo_rate: 20000 is out of range [100, 10000] Hz"));
+  // A 1e-6 mm cuboid passed the check; the builder threw from make_cuboid or built an empty tree.
+  EXPECT_THAT(
+      error_of("objects:\n  - name: speck\n    shape: {type: cuboid, size: [1e-6, 1e-6, 1e-6]}\n"),
+      HasSubstr("test.yaml:3:33: objects[0].shape.size: edge 1e-06 mm is below the smallest a cuboid may "
+                "have, 0.01 mm"));
+  EXPECT_THAT(
+      error_of("objects:\n  - name: grain\n    shape: {type: cuboid, size: [0.05, 0.05, 0.05]}\n"),
+      HasSubstr("objects[0].shape.size: edge 0.05 mm is thinner than two level-set voxels of its tight "
+                "tree (2 x 0.05 mm)"));
+  // The same grain in an octree, or with a finer tolerance, builds: it is accepted.
+  EXPECT_NO_THROW(
+      parse_scene("objects:\n  - name: grain\n    shape: {type: cuboid, size: [0.05, 0.05, 0.05]}\n"
+                  "    tree: {mode: octree}\n",
+                  "test.yaml"));
+  EXPECT_NO_THROW(parse_scene("objects:\n  - name: grain\n    shape: {type: cuboid, size: [0.1, 0.1, 0.1]}\n",
+                              "test.yaml"));
+}
+
+// Issue #14 item 9: a directory given as a mesh was "not found".
+TEST(SceneParse, ADirectoryAsAMeshIsNamedAsSuch) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  EXPECT_THAT(error_of("objects:\n  - name: m\n    shape: {type: mesh, file: '" + dir + "'}\n"),
+              HasSubstr("objects[0].shape.file: " + std::filesystem::path(dir).lexically_normal().string() +
+                        " is a directory, not a mesh file"));
 }
 
 TEST(ParseSceneErrors, SceneWideChecks) {

@@ -36,9 +36,41 @@ TEST(Trajectory, ParsesAndInterpolates) {
 }
 
 TEST(Trajectory, ColumnsInAnyOrderAndQuaternionsNormalised) {
-  const Trajectory tr = parse_trajectory_csv("qw,qx,qy,qz,t,px,py,pz,extra\n2,0,0,0,0,1,2,3,x\n", "traj.csv");
+  // Rounding (a quaternion written with six digits) is normalised away.
+  const Trajectory tr =
+      parse_trajectory_csv("qw,qx,qy,qz,t,px,py,pz,extra\n1.0004,0,0,0,0,1,2,3,x\n", "traj.csv");
   EXPECT_NEAR(tr.pose[0].q.w(), 1.0, 1e-12);
   EXPECT_NEAR(tr.pose[0].p.y(), 2.0, 1e-12);
+}
+
+// Issue #14 item 9: a non-unit quaternion was silently normalised here and rejected by the UDP
+// bridge. One rule now: unit within bridge::kUnitTolerance, else an error at its line and column.
+TEST(Trajectory, NonUnitQuaternionsAreRejectedAsByTheBridge) {
+  const std::string e = error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0,2,0,0,0\n");
+  EXPECT_NE(e.find("traj.csv:3:9: quaternion (qw,qx,qy,qz) has length 2"), std::string::npos) << e;
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,0.5,0.5,0.5,0.4\n").find("unit quaternion"),
+            std::string::npos);
+}
+
+// Issue #14 item 9: a UTF-8 byte order mark before the header made it "lack column 't'".
+TEST(Trajectory, AByteOrderMarkIsSkipped) {
+  const Trajectory tr =
+      parse_trajectory_csv("\xEF\xBB\xBFt,px,py,pz,qw,qx,qy,qz\n0,1,2,3,1,0,0,0\n", "traj.csv");
+  ASSERT_EQ(tr.t.size(), 1u);
+  EXPECT_EQ(tr.pose[0].p.x(), 1.0);
+}
+
+// Issue #14 item 9: a directory given as a trajectory (sim --trajectory, scripted:DIR) was reported
+// as an "empty trajectory".
+TEST(Trajectory, ADirectoryIsNamedAsSuch) {
+  const auto dir = std::filesystem::temp_directory_path();
+  try {
+    load_trajectory_csv(dir);
+    FAIL() << "a directory loaded as a trajectory";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory, not a trajectory file"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Trajectory, CursorMatchesSample) {
@@ -59,7 +91,7 @@ TEST(Trajectory, ErrorsNameLineColumnAndField) {
   EXPECT_NE(bad_number.find("traj.csv:2:5"), std::string::npos) << bad_number;
   EXPECT_NE(bad_number.find("'py'"), std::string::npos) << bad_number;
   EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,nan,0,1,0,0,0\n").find("not finite"), std::string::npos);
-  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,0,0,0,0\n").find("zero length"), std::string::npos);
+  EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,0,0,0,0\n").find("has length 0"), std::string::npos);
   EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n1,0,0,0,1,0,0,0\n1,0,0,0,1,0,0,0\n").find("traj.csv:3:1: time"),
             std::string::npos);
   EXPECT_NE(error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0\n").find("expected 8 fields"), std::string::npos);

@@ -78,7 +78,7 @@ Status read_status(const fs::path& json) {
   const fs::path script = json.string() + ".py", flat = json.string() + ".txt";
   std::ofstream(script) << R"(import json, sys
 d = json.load(open(sys.argv[1]))
-for k in ("scene", "device", "state"):
+for k in ("scene", "device", "state", "camera"):
     print("T", k, d[k])
 for k in ("force_norm", "rendered_force_norm", "depth", "t", "width", "height"):
     print("N", k, d[k])
@@ -277,6 +277,46 @@ TEST_P(ViewerXvfb, ScriptedTouchShowsToothToolAndPanel) {
 
 INSTANTIATE_TEST_SUITE_P(BuiltinScenes, ViewerXvfb, ::testing::ValuesIn(cariesim::builtin_scene_names()),
                          scene_test_name);
+
+// The clinician's views (issue #12): each camera preset looks at the explorer's tip from its side; the
+// tip and the working end are in view and drawn (the working end over everything: neither a tooth
+// nor the handle hides it), the panel says which view it is.
+class ViewerPreset : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ViewerPreset, LooksAtTheTipFromItsSide) {
+  if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
+  const std::string view = GetParam();
+  const fs::path trajectory =
+      fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "trajectories" / "viewer-touch-oral-cavity.csv";
+  const fs::path png = artefacts() / ("view-" + view + ".png"),
+                 json = artefacts() / ("view-" + view + ".json");
+  fs::remove(png);
+  fs::remove(json);
+  const RunResult r = run_under_xvfb("run --scene oral-cavity --device 'scripted:" + trajectory.string() +
+                                         "' --view " + view + " --no-realtime --exit-after " +
+                                         std::to_string(kExitAfter) + " --screenshot '" + png.string() + "'",
+                                     "view-" + view);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const Status status = read_status(json);
+  EXPECT_EQ(status.text.at("camera"), view);
+  ASSERT_TRUE(status.number.count("tip")) << "the tip is in view";
+  // The camera follows the tip: it stays near the middle of the 3-D view.
+  const std::vector<double>& tip = status.number.at("tip");
+  const std::vector<double>& v = status.number.at("view");
+  EXPECT_NEAR(tip[0], v[0] + 0.5 * v[2], 0.1 * v[2]);
+  EXPECT_NEAR(tip[1], v[1] + 0.5 * v[3], 0.1 * v[3]);
+  // The tip's surroundings are drawn (not background), and the working end's first 10 mm are in view.
+  const Image img = load_png(png);
+  ASSERT_NE(img.data, nullptr) << png;
+  const Stats around = region_stats(img, static_cast<int>(tip[0]) - 3, static_cast<int>(tip[1]) - 3,
+                                    static_cast<int>(tip[0]) + 4, static_cast<int>(tip[1]) + 4,
+                                    status.number.at("background"), nullptr);
+  EXPECT_LT(around.background, 0.5);
+  EXPECT_GE(status.tool_points.size(), 2u) << "the tip and at least 10 mm of the tool are in view";
+}
+
+INSTANTIATE_TEST_SUITE_P(Presets, ViewerPreset,
+                         ::testing::Values("occlusal", "buccal", "lingual", "operator"));
 
 // The default: oral-cavity with the mouse device; the tool waits at its home, free.
 TEST(ViewerXvfbDefault, MouseOnOralCavity) {

@@ -3,11 +3,12 @@
 /// the input is stale or not finite, a global force scale. Allocation-free; used on the servo thread.
 ///
 /// A reading is a fault, and the wrench is zeroed, when it is marked invalid, is not finite (pose,
-/// or the wrench itself), is older than `stale_after`, or jumped further than `max_jump` from the
-/// previous reading. After a fault clears the force ramps in again from zero over `ramp_time`, as
-/// at start. The layer only ever scales the wrench down (by at most 1) or zeroes it: the one clamp
-/// to the device's limits is the haptic step's output stage (against Params::limits, which hold what
-/// the device announced), so a wrench that went through both never exceeds the limits.
+/// or the wrench itself), is older than `stale_after`, or jumped further than `max_jump` (or turned
+/// further than `max_jump_rotation`) from the previous reading. After a fault clears the force ramps
+/// in again from zero over `ramp_time`, as at start. The layer only ever scales the wrench down (by
+/// at most 1) or zeroes it: the one clamp to the device's limits is the haptic step's output stage
+/// (against Params::limits, which hold what the device announced), so a wrench that went through
+/// both never exceeds the limits.
 
 #include <cstdint>
 
@@ -21,6 +22,7 @@ struct SafetyParams {
   double stale_after = 0.05;  ///< s, a reading older than this zeroes the force
   double force_scale = 1.0;   ///< global scale in [0, 1]
   double max_jump = 20.0;     ///< mm, a larger move between two readings is a fault
+  double max_jump_rotation = 0.5;  ///< rad, a larger turn between two readings is a fault
 };
 
 /// What happened to a cycle's wrench on its way to the device, as records (`safety_flags`) and the
@@ -34,7 +36,8 @@ enum SafetyFlag : uint32_t {
   kSafetyStale = 1u << 3,          ///< the reading is older than SafetyParams::stale_after; zeroed
   kSafetyNonFinite = 1u << 4,      ///< the reading or the wrench is not finite; zeroed
   kSafetyInvalidInput = 1u << 5,   ///< the reading is marked invalid (none yet, or ended); zeroed
-  kSafetyJump = 1u << 6,           ///< the reading jumped further than SafetyParams::max_jump; zeroed
+  kSafetyJump = 1u << 6,           ///< the reading jumped (turned) further than SafetyParams::max_jump
+                                   ///< (max_jump_rotation); zeroed
 };
 /// The flags that mean the force was zeroed.
 inline constexpr uint32_t kSafetyFaultMask =
@@ -62,6 +65,7 @@ class ForceSafety {
   SafetyParams params_;
   double ramp_start_ = -1.0;           // s; negative = not started
   Vec3 last_position_ = Vec3::Zero();  // mm, the previous finite reading
+  Quat last_orientation_ = Quat::Identity();  // the previous finite reading's
   bool has_last_ = false;
   uint32_t flags_ = 0;
   uint64_t faults_ = 0;

@@ -46,6 +46,7 @@ struct BridgeCounters {
   uint64_t sent = 0;                                       ///< wrench packets sent
   uint64_t send_errors = 0;                                ///< sendto failures
   uint64_t sessions = 0;  ///< sessions started (first packet, hello, or a new client after a silence)
+  uint64_t resyncs = 0;   ///< times the session followed a client whose sequence or clock jumped
 
   [[nodiscard]] uint64_t operator[](BridgeVerdict v) const { return by_verdict[static_cast<std::size_t>(v)]; }
   /// Datagrams rejected for any reason.
@@ -61,6 +62,13 @@ struct BridgeCounters {
 /// wrap). A packet is Stale when its transit delay exceeds the timeout: the delay is measured as
 /// (receive time - client time) minus the smallest such difference seen in the session, which
 /// absorbs the offset between the two clocks (and a drift of up to 0.1 %).
+///
+/// One bad packet cannot stall a session: a sequence number more than 2^16 ahead is rejected
+/// (OutOfOrder) instead of believed, and a single packet whose client time leapt ahead is accepted
+/// without moving the clock offset. A client whose sequence or clock really jumped (three packets in
+/// a row that agree with each other and not with the session; for a late clock, over more than the
+/// timeout) is followed: the session resynchronises (BridgeCounters::resyncs) instead of refusing
+/// every packet until the session times out.
 class BridgeInbox {
  public:
   /// `timeout` (s): the largest accepted transit delay; `session_timeout` (s): silence that ends a
@@ -89,6 +97,13 @@ class BridgeInbox {
   uint32_t last_sequence_ = 0;
   double last_accept_time_ = 0.0;  // s
   double clock_offset_ = 0.0;      // s, smallest (recv_time - client_time) of the session
+  int note_disagreeing(uint32_t sequence, double offset, double recv_time);
+  // The run of consecutive packets that disagree with the session (resynchronisation).
+  int run_packets_ = 0;
+  uint32_t run_sequence_ = 0;  // the run's last sequence number
+  double run_offset_ = 0.0;    // s, smallest clock offset in the run
+  double run_started_ = 0.0;   // s, receive time of the run's first packet
+  std::atomic<uint64_t> resyncs_{0};
   std::array<std::atomic<uint64_t>, kBridgeVerdictCount> counts_{};
   std::atomic<uint64_t> sessions_{0};
 };

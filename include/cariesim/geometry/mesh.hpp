@@ -44,11 +44,17 @@ struct MeshReport {
 };
 
 /// Import options.
+/// mm: the smallest and largest extent a mesh may have (after `scale`); outside, it is an error
+/// naming the units (a scan in micrometres or metres read as millimetres).
+inline constexpr double kMinMeshExtent = 0.1;
+inline constexpr double kMaxMeshExtent = 1000.0;
+
 struct MeshLoadOptions {
   double scale = 1.0;            ///< multiplies coordinates (files are expected in mm); load_mesh only
   bool require_closed = true;    ///< reject open / non-manifold meshes that cannot be repaired
   bool fill_small_holes = true;  ///< close boundary loops of at most kMaxFilledHoleEdges edges
-  bool check_self_intersections = true;  ///< count intersecting triangle pairs (a warning, not an error)
+  bool check_self_intersections = true;  ///< count intersecting triangle pairs: an error when
+                                         ///< require_closed, else a warning
 };
 
 /// Longest boundary loop (edges) that validation closes when fill_small_holes is set.

@@ -66,6 +66,8 @@ struct RecorderStatus {
   uint64_t max_batch_samples = 0;  ///< largest batch (samples)
   double max_commit_us = 0.0;      ///< µs, longest COMMIT
   double total_commit_us = 0.0;    ///< µs, time spent in COMMIT over all batches
+  uint64_t checkpoints = 0;        ///< WAL checkpoints into the database file (every 250 ms)
+  double max_checkpoint_us = 0.0;  ///< µs, longest checkpoint
 };
 
 class Recorder {

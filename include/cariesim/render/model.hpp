@@ -39,14 +39,15 @@ struct ToolModel {
 
 /// Numerical settings of the step.
 struct StepSettings {
-  double trust_step = 0.1;         ///< mm, largest tool-leaf motion per sub-step (trust region)
-  double trust_rotation = 0.02;    ///< rad, largest rotation per sub-step
-  int max_substeps = 6;            ///< per step; the graphic tool lags behind beyond that
-  int max_rechecks = 3;            ///< collision re-checks at the solution per sub-step
-  double rigid_tolerance = 0.005;  ///< mm, allowed overlap with rigid leaves at the end of a step
-  double max_jump = 20.0;          ///< mm, a larger haptic jump in one step is flagged and limited
-  double contact_margin = 0.02;    ///< mm, extra margin when collecting contacts
-  double reference_dt = 0.001;     ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
+  double trust_step = 0.1;          ///< mm, largest tool-leaf motion per sub-step (trust region)
+  double trust_rotation = 0.02;     ///< rad, largest rotation per sub-step
+  int max_substeps = 6;             ///< per step; the graphic tool lags behind beyond that
+  int max_rechecks = 3;             ///< collision re-checks at the solution per sub-step
+  double rigid_tolerance = 0.005;   ///< mm, allowed overlap with rigid leaves at the end of a step
+  double max_jump = 20.0;           ///< mm, a larger haptic jump in one step is flagged and limited
+  double max_jump_rotation = 0.5;   ///< rad, a larger haptic turn in one step is flagged the same way
+  double contact_margin = 0.02;     ///< mm, extra margin when collecting contacts
+  double reference_dt = 0.001;      ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
   double max_give_speed = 40.0;

@@ -24,7 +24,8 @@ double insertion_resistance(const Material& caries, double apex_depth);
 /// Output flags.
 enum StepFlag : uint32_t {
   kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf; the last good one was used
-  kFlagJumpLimited = 1u << 1,        ///< the haptic tool moved further than max_jump in one step
+  kFlagJumpLimited = 1u << 1,        ///< the haptic tool moved (turned) further than max_jump
+                                     ///< (max_jump_rotation) in one step
   kFlagInfeasible = 1u << 2,         ///< the constraints contradicted each other; the tool held still
   kFlagContactOverflow = 1u << 3,    ///< more sphere pairs than the contact capacity
   kFlagForceClamped = 1u << 4,       ///< force limited to the device maximum

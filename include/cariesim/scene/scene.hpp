@@ -49,6 +49,9 @@ struct BuildOptions {
   ProgressFn progress;                     ///< long builds report here
 };
 
+/// mm: the seam band reaches this far each side of a lesion's border along the surface (issue #10).
+inline constexpr double kSeamBandHalfWidth = 0.5;
+
 /// What building one collision part took (`cariesim tree`, benchmarks).
 struct PartReport {
   std::string name;  ///< e.g. "tooth46/healthy", "tooth46/lesion1"
@@ -59,6 +62,9 @@ struct PartReport {
   double build_seconds = 0.0;  ///< s, level sets, tree, labels and display mesh, or the cache load
   bool cache_hit = false;
   std::optional<Deviation> deviation;  ///< mm, when BuildOptions::measure_deviation
+  /// mm, a caries part when BuildOptions::measure_deviation: the union of all of its object's parts
+  /// against the object's uncut surface within kSeamBandHalfWidth of this lesion's border.
+  std::optional<Deviation> seam_deviation;
 };
 
 /// What building a whole model took.

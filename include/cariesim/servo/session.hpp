@@ -102,6 +102,10 @@ class Session {
   [[nodiscard]] const SessionInfo& info() const { return info_; }
   /// Hz, the servo rate it runs at.
   [[nodiscard]] double rate_hz() const { return info_.rate_hz; }
+  /// What the owner should tell the user about this session, empty when nothing: a replayed
+  /// recording made on another scene (its scene hash differs from the model's), whose poses then
+  /// meet other geometry.
+  [[nodiscard]] const std::string& warning() const { return warning_; }
 
  private:
   void make_loop(const Params& params);
@@ -111,6 +115,7 @@ class Session {
   std::unique_ptr<Device> device_;
   DeviceInfo device_info_;
   SessionInfo info_;
+  std::string warning_;
   std::unique_ptr<Recorder> recorder_;
   std::unique_ptr<ServoLoop> loop_;  // declared last: destroyed first, before the device and recorder
   PublishedParams params_;           // the owner's copy of the running Params

@@ -8,15 +8,19 @@
 ///   greedily until every surface sample is within `tolerance` of the union; inner nodes bound their
 ///   children.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "cariesim/common/progress.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/spheretree/hierarchy.hpp"
+#include "cariesim/spheretree/lesion.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
 
@@ -69,6 +73,40 @@ void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm);
 void assign_materials(SphereTree& tree,
                       const std::function<uint16_t(const Vec3& center, float depth)>& material_of);
 
+/// How the seam between the parts of an object cut by lesions is closed (issue #10).
+struct SeamParams {
+  double band_mm = 0.75;  ///< mm each side of a lesion's border over which the uncut surface is covered again
+  double overlap_mm = 0.1;  ///< mm, how far a seam leaf may reach across a cut into the neighbouring part
+  double tolerance = 0.01;  ///< mm, largest coverage tolerance of the seam leaves
+  /// Seam leaves follow the surface to this fraction of the tree's own tolerance (at most `tolerance`):
+  /// a rigid probe's 0.05 mm tip feels the dimples between leaves as tangential force.
+  double tolerance_fraction = 1.0 / 3.0;
+  /// mm, the seam leaves' coverage tolerance for a tree of tolerance `tree_tolerance_mm`.
+  [[nodiscard]] double tolerance_for(double tree_tolerance_mm) const {
+    return std::min(tolerance, tolerance_fraction * tree_tolerance_mm);
+  }
+};
+
+/// Seam leaves (issue #10). Cutting an object into healthy and caries parts (paper §2.2) gives both
+/// parts a sharp edge where a lesion meets the surface, which inscribed spheres cannot fill: their
+/// union leaves a groove along every border. These leaves cover the uncut surface of `object` within
+/// `seam.band_mm` of every lesion's border (to `seam.tolerance_for(params.tolerance)`), tangent to it,
+/// each inside the object and reaching at most `seam.overlap_mm` across a cut; each belongs to the part
+/// holding its centre. Returned per part: [0] healthy, [1 + k] the caries of lesions[k] (the first lesion
+/// holding a point owns it, as the CSG cuts them). Leaves come flagged kLeafOnExposedSurface with their
+/// tangent normals.
+std::vector<std::vector<LeafSphere>> build_seam_leaves(const LevelSet& object,
+                                                       std::span<const LesionShape> lesions,
+                                                       const TreeParams& params, const SeamParams& seam = {},
+                                                       const ProgressFn& progress = {});
+
+/// A part's tree with its seam leaves (build_seam_leaves) added, its inner levels rebuilt. The part's
+/// own leaves that poke out of the uncut surface (`object`) within `seam.band_mm` of a border are first
+/// shrunk to poke out no more than the seam leaves may (a fifth of their tolerance).
+SphereTree add_seam_leaves(const SphereTree& part, std::span<const LeafSphere> seam_leaves,
+                           const LevelSet& object, std::span<const LesionShape> lesions,
+                           const TreeParams& params, const SeamParams& seam = {});
+
 /// Distance between the union of leaves and a surface, both ways (DESIGN.md §3).
 struct Deviation {
   double p50 = 0.0;             ///< mm
@@ -85,6 +123,17 @@ struct Deviation {
 /// cariesim::Error for an empty tree or surface.
 Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface, const LevelSet& shape,
                             std::size_t samples = 100000, uint64_t seed = 1);
+
+/// Deviation across a lesion's border (issue #10): the union of the leaves of every part of one
+/// object (`parts`: healthy and caries trees) against the object's uncut `surface`, on the band where
+/// |border(x)| <= `half_width_mm` (mm; `border` is the lesion's signed distance, so the band runs
+/// `half_width_mm` each side of the border along the surface); poke-outs beyond `shape` (the object's
+/// level set) of the leaves whose poking cap (around the apex toward the nearest surface) reaches the
+/// band. About `samples` band samples (seeded). Throws
+/// cariesim::Error for an empty part, surface or band.
+Deviation measure_seam_deviation(std::span<const SphereTree* const> parts, const TriangleMesh& surface,
+                                 const LevelSet& shape, const std::function<double(const Vec3&)>& border,
+                                 double half_width_mm, std::size_t samples = 100000, uint64_t seed = 1);
 
 /// What `cariesim tree` reports about a build.
 struct TreeReport {

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "cariesim/spheretree/sphere_tree.hpp"
 
@@ -12,16 +13,19 @@ namespace cariesim {
 
 /// A leaf before the hierarchy exists.
 struct LeafSphere {
-  Vec3f center;          ///< mm
-  float radius;          ///< mm
+  Vec3f center;  ///< mm
+  float radius;  ///< mm
   uint16_t material = 0;
-  uint32_t flags = 0;    ///< LeafFlags
-  float depth = 0.0f;    ///< mm below the outer surface
+  uint32_t flags = 0;       ///< LeafFlags
+  float depth = 0.0f;       ///< mm below the outer surface
   LeafTangents tangents{};  ///< the surfaces the sphere is tangent to (none for fillers)
 };
 
 /// Builds a tree whose leaves are exactly `leaves` (leaf index i = leaves[i]). `branching` in [2, 8].
 /// An empty input gives an empty tree.
 SphereTree build_hierarchy(std::span<const LeafSphere> leaves, int branching = 4);
+
+/// The leaves of a tree, in leaf order (leaf index i = result[i]), to rebuild it with others.
+std::vector<LeafSphere> tree_leaves(const SphereTree& tree);
 
 }  // namespace cariesim
