@@ -24,7 +24,7 @@ const std::filesystem::path kScenes = std::filesystem::path(CARIESIM_SOURCE_DIR)
 TEST(BuiltinScenes, DefaultFirstAndAllPresent) {
   const auto names = builtin_scene_names();
   ASSERT_FALSE(names.empty());
-  EXPECT_EQ(names.front(), "oral-cavity");
+  EXPECT_EQ(names.front(), "real-arch");  // the default
   for (const char* expected : {"oral-cavity", "real-arch", "friction-block", "boundary-square",
                                "boundary-triangle", "boundary-circle", "insertion-blocks"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
