@@ -39,6 +39,8 @@
 //
 // Run: build/bench/collision_bench --benchmark_counters_tabular=true
 // Counters: p50_us / p99_us per query (from our own clock around each query), contacts per query.
+// The scan is the shipped data/open-full-jaw/patient26/tooth_30.ply; without it the program says so
+// and skips (exit status 0); a file that cannot be read is reported (exit status 1), never an abort.
 
 #include <benchmark/benchmark.h>
 #include <fcl/fcl.h>
@@ -57,6 +59,7 @@
 #include <vector>
 
 #include "cariesim/collision/collide.hpp"
+#include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/spheretree/build.hpp"
@@ -72,7 +75,9 @@ constexpr std::size_t kCapacity = 1024;  // contacts per query, both sides
 constexpr double kRestingGap = -0.005;   // mm, the tip's gap when it rests on the surface
 constexpr int kPathLength = 1024;        // poses along each scenario's small path
 
-const std::filesystem::path kDataDir = CARIESIM_SHARED_DATA_DIR "/open-full-jaw/patient26";
+const std::filesystem::path kDataDir = CARIESIM_DATA_DIR "/open-full-jaw/patient26";
+const std::filesystem::path kToothFile = kDataDir / "tooth_30.ply";
+const std::filesystem::path kAxesFile = kDataDir / "teeth_axes_mandible.json";
 
 // The scanned molar: the mesh, its vertices (mm) and triangles for FCL.
 struct Tooth {
@@ -87,12 +92,13 @@ struct Tooth {
 // file (read with yaml-cpp: JSON is YAML).
 Tooth load_tooth() {
   Tooth tooth;
-  tooth.mesh = cariesim::load_mesh(kDataDir / "tooth_30.stl");
+  tooth.mesh = cariesim::load_mesh(kToothFile);
   for (const Vec3f& v : tooth.mesh.vertices) tooth.vertices.push_back(v.cast<double>());
   for (const auto& t : tooth.mesh.triangles) {
     tooth.triangles.push_back({static_cast<int>(t[0]), static_cast<int>(t[1]), static_cast<int>(t[2])});
   }
-  const YAML::Node axes = YAML::LoadFile((kDataDir / "teeth_axes_mandible.json").string())["30"];
+  const YAML::Node axes = YAML::LoadFile(kAxesFile.string())["30"];
+  if (!axes.IsMap()) throw cariesim::Error(kAxesFile.string() + ": no axes for tooth 30");
   Vec3 c;
   Vec3 z;
   for (int k = 0; k < 3; ++k) {
@@ -448,4 +454,24 @@ BENCHMARK(BM_FclLoop)->ArgsProduct({{0, 1, 2}, {0, 1}})->Unit(benchmark::kMicros
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// Google Benchmark's main, after checking the scan: a missing file skips the benchmark with a
+// message, a broken one is reported; both instead of an uncaught exception inside a benchmark.
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  for (const auto& file : {kToothFile, kAxesFile}) {
+    if (!std::filesystem::is_regular_file(file)) {
+      std::printf("collision_bench: skipped: the shipped scan is missing: %s\n", file.string().c_str());
+      return 0;
+    }
+  }
+  try {
+    (void)world();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "collision_bench: cannot load the scan: %s\n", e.what());
+    return 1;
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -80,9 +80,9 @@ BENCHMARK(BM_MakeExplorerSpheres)->Unit(benchmark::kMicrosecond)->Repetitions(5)
 
 void BM_LoadScan(benchmark::State& state) {
   const std::filesystem::path file =
-      std::filesystem::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
+      std::filesystem::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.ply";
   if (!std::filesystem::exists(file)) {
-    state.SkipWithError("shared scans not present");
+    state.SkipWithError(("skipped: the shipped scan is missing: " + file.string()).c_str());
     return;
   }
   MeshLoadOptions options;

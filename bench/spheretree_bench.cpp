@@ -29,11 +29,11 @@
 namespace cariesim {
 namespace {
 
-// The scan, loaded once; nullptr when the shared data is missing.
+// The scan, loaded once; nullptr when the shipped file is missing.
 const TriangleMesh* tooth() {
   static const std::optional<TriangleMesh> mesh = []() -> std::optional<TriangleMesh> {
     const std::filesystem::path path =
-        std::filesystem::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
+        std::filesystem::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.ply";
     if (!std::filesystem::exists(path)) return std::nullopt;
     return load_mesh(path);
   }();
@@ -48,7 +48,7 @@ LevelSet level_set(const TriangleMesh& mesh, const TreeParams& params) {
 void TightBuild(benchmark::State& state) {
   const TriangleMesh* mesh = tooth();
   if (!mesh) {
-    state.SkipWithError("no tooth_30 scan under CARIESIM_SHARED_DATA_DIR");
+    state.SkipWithError("skipped: no tooth_30.ply under " CARIESIM_DATA_DIR "/open-full-jaw/patient26");
     return;
   }
   const TreeParams params;
@@ -64,7 +64,7 @@ void TightBuild(benchmark::State& state) {
 void TightTreeOnly(benchmark::State& state) {
   const TriangleMesh* mesh = tooth();
   if (!mesh) {
-    state.SkipWithError("no tooth_30 scan under CARIESIM_SHARED_DATA_DIR");
+    state.SkipWithError("skipped: no tooth_30.ply under " CARIESIM_DATA_DIR "/open-full-jaw/patient26");
     return;
   }
   const TreeParams params;
@@ -78,7 +78,7 @@ void TightTreeOnly(benchmark::State& state) {
 void OctreeDepth4(benchmark::State& state) {
   const TriangleMesh* mesh = tooth();
   if (!mesh) {
-    state.SkipWithError("no tooth_30 scan under CARIESIM_SHARED_DATA_DIR");
+    state.SkipWithError("skipped: no tooth_30.ply under " CARIESIM_DATA_DIR "/open-full-jaw/patient26");
     return;
   }
   TreeParams params;
@@ -96,7 +96,7 @@ void OctreeDepth4(benchmark::State& state) {
 void CacheHit(benchmark::State& state) {
   const TriangleMesh* mesh = tooth();
   if (!mesh) {
-    state.SkipWithError("no tooth_30 scan under CARIESIM_SHARED_DATA_DIR");
+    state.SkipWithError("skipped: no tooth_30.ply under " CARIESIM_DATA_DIR "/open-full-jaw/patient26");
     return;
   }
   // Build and store once, outside the timed region.

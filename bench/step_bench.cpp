@@ -1,7 +1,9 @@
 // The haptic step on the scenes that matter (issue 3 item 9, issue 4): per-step time along
 // deterministic scripted trajectories in `oral-cavity` — free motion, sliding over the occlusal
 // enamel of 46, the tip in 46's central fossa with the shank resting on a neighbour — and on
-// `insertion-blocks` during insertion with the additional contact of paper Fig. 14.
+// `insertion-blocks` during insertion with the additional contact of paper Fig. 14. The same three
+// oral trajectories run on `real-arch` (the scanned teeth, issue #12), made the same way from its
+// lesion #1 on 46; without the shipped scans those benchmarks are skipped with a message.
 // Targets: median <= 50 us, p99 <= 100 us, p99.9 <= 250 us on one core.
 //
 // Run: build/bench/step_bench --benchmark_counters_tabular=true
@@ -14,8 +16,10 @@
 
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
+#include <ctime>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "cariesim/experiment/simulate.hpp"
@@ -30,6 +34,21 @@ using namespace cariesim;
 const Model& oral() {
   static const Model model = build_model(load_scene("oral-cavity"));
   return model;
+}
+
+// The real arch, or nothing (with the reason) when its scans cannot be loaded.
+const Model* real_arch(std::string* why) {
+  static std::string reason;
+  static const std::optional<Model> model = []() -> std::optional<Model> {
+    try {
+      return build_model(load_scene("real-arch"));
+    } catch (const std::exception& e) {
+      reason = e.what();
+      return std::nullopt;
+    }
+  }();
+  *why = reason;
+  return model ? &*model : nullptr;
 }
 
 const Model& blocks() {
@@ -58,8 +77,7 @@ std::vector<Pose> sample(const Trajectory& t) {
 }
 
 // Free motion: a loop 4 mm above 46 and its neighbours, turning the tool as it goes.
-std::vector<Pose> free_motion() {
-  const Model& m = oral();
+std::vector<Pose> free_motion(const Model& m) {
   const LesionModel& l = lesion_named(m, "lesion1");
   const Quat q = experiment::best_posture(m, l).q;
   Trajectory t;
@@ -72,13 +90,14 @@ std::vector<Pose> free_motion() {
 }
 
 // Sliding over the occlusal enamel of 46 next to lesion #1, pressed 0.3 mm, back and forth.
-std::vector<Pose> sliding() {
-  const Model& m = oral();
+std::vector<Pose> sliding(const Model& m) {
   const LesionModel& l = lesion_named(m, "lesion1");
   const Quat q = experiment::best_posture(m, l).q;
   const Vec3 n = l.shape.normal.normalized(), s = l.shape.center;
   const Vec3 side = n.unitOrthogonal();
-  const auto at = [&](double u, double depth) { return Pose{s + side * u - n * (depth - m.tool.tip_radius), q}; };
+  const auto at = [&](double u, double depth) {
+    return Pose{s + side * u - n * (depth - m.tool.tip_radius), q};
+  };
   Trajectory t;
   t.add(0.0, at(2.0, -1.0));
   t.add(0.5, at(2.0, 0.3));
@@ -90,8 +109,7 @@ std::vector<Pose> sliding() {
 
 // The tip in 46's central fossa, the tool leaning onto a neighbouring tooth: the most tilted
 // candidate posture whose nearest object is another tooth and that touches it.
-std::vector<Pose> fissure_with_shank_on_neighbour() {
-  const Model& m = oral();
+std::vector<Pose> fissure_with_shank_on_neighbour(const Model& m) {
   const LesionModel& l = lesion_named(m, "lesion1");
   const int t46 = object_named(m, "tooth46/healthy");
   const experiment::Posture* pick = nullptr;
@@ -186,28 +204,54 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
 }
 
 void BM_StepOralFree(benchmark::State& state) {
-  static const std::vector<Pose> poses = free_motion();
+  static const std::vector<Pose> poses = free_motion(oral());
   run(state, oral(), poses, nullptr);
 }
 void BM_StepOralSlidingOcclusal(benchmark::State& state) {
-  static const std::vector<Pose> poses = sliding();
+  static const std::vector<Pose> poses = sliding(oral());
   run(state, oral(), poses, nullptr);
 }
 void BM_StepOralFissureShankOnNeighbour(benchmark::State& state) {
-  static const std::vector<Pose> poses = fissure_with_shank_on_neighbour();
+  static const std::vector<Pose> poses = fissure_with_shank_on_neighbour(oral());
   run(state, oral(), poses, nullptr);
+}
+
+// The same on the real arch; skipped with the reason when it cannot be built.
+template <std::vector<Pose> (*Make)(const Model&)>
+void BM_StepRealArch(benchmark::State& state) {
+  std::string why;
+  const Model* m = real_arch(&why);
+  if (m == nullptr) {
+    state.SkipWithError(("skipped: real-arch: " + why).c_str());
+    return;
+  }
+  static const std::vector<Pose> poses = Make(*m);
+  run(state, *m, poses, nullptr);
 }
 void BM_StepInsertionWithContact(benchmark::State& state) {
   static const std::vector<Pose> poses = insertion_with_contact();
   // Only the steps inside the tunnel with an additional contact row.
   run(state, blocks(), poses, [](const StepOutput& o) {
-    return (o.state == InteractionState::Inserting || o.state == InteractionState::Extracting) && o.contacts > 0;
+    return (o.state == InteractionState::Inserting || o.state == InteractionState::Extracting) &&
+           o.contacts > 0;
   });
 }
 
 BENCHMARK(BM_StepOralFree)->Iterations(20000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepOralSlidingOcclusal)->Iterations(20000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepOralFissureShankOnNeighbour)->Iterations(20000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArch<free_motion>)
+    ->Name("BM_StepRealArchFree")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArch<sliding>)
+    ->Name("BM_StepRealArchSlidingOcclusal")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArch<fissure_with_shank_on_neighbour>)
+    ->Name("BM_StepRealArchFissureShankOnNeighbour")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepInsertionWithContact)->Iterations(40000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

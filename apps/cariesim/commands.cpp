@@ -19,7 +19,7 @@ void register_all(CLI::App& app, Registry& registry) {
     std::printf("cariesim %s\n", CARIESIM_VERSION);
     return 0;
   });
-  // `run` is also the default without a subcommand: the simulator window on oral-cavity.
+  // `run` is also the default without a subcommand: the simulator window on real-arch.
   register_run(app, registry);
   register_sim(app, registry);
   register_experiment(app, registry);

@@ -18,7 +18,7 @@ namespace {
 constexpr int kNoDisplay = 4;
 
 struct RunArgs {
-  std::string scene = "oral-cavity";
+  std::string scene = "real-arch";
   std::string device = "mouse";
   double rate = 0.0;  // Hz; 0 = the scene's servo rate
   std::string record;

@@ -8,17 +8,17 @@
 namespace cariesim::viewer {
 
 struct ViewerOptions {
-  std::string scene = "oral-cavity";  ///< built-in scene name or scene YAML file
-  std::string device = "mouse";       ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
-  double rate_hz = 0.0;               ///< Hz, servo rate; 0: the scene's
-  std::string record;                 ///< SQLite file for the session record; empty: none
-  bool overwrite = false;             ///< replace an existing record file (otherwise it is an error)
-  std::string screenshot;             ///< PNG written after `exit_after`; empty: none
-  double exit_after = 0.0;            ///< s of servo time after which the viewer exits; 0: never
-  bool show_lesions = false;          ///< start with the lesions revealed (hidden is a trial's default)
-  bool realtime = true;               ///< ask for real-time priority for the servo thread
-  int width = 1280;                   ///< px, window width
-  int height = 800;                   ///< px, window height
+  std::string scene = "real-arch";  ///< built-in scene name or scene YAML file
+  std::string device = "mouse";     ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
+  double rate_hz = 0.0;             ///< Hz, servo rate; 0: the scene's
+  std::string record;               ///< SQLite file for the session record; empty: none
+  bool overwrite = false;           ///< replace an existing record file (otherwise it is an error)
+  std::string screenshot;           ///< PNG written after `exit_after`; empty: none
+  double exit_after = 0.0;          ///< s of servo time after which the viewer exits; 0: never
+  bool show_lesions = false;        ///< start with the lesions revealed (hidden is a trial's default)
+  bool realtime = true;             ///< ask for real-time priority for the servo thread
+  int width = 1280;                 ///< px, window width
+  int height = 800;                 ///< px, window height
   /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);
   /// empty: the whole scene framed
   std::string view;

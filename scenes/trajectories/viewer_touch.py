@@ -13,6 +13,9 @@ import os
 # scene: home position, home rotation (axis, degrees) as in the scene file, target (x, y), surface z
 SCENES = {
     "oral-cavity": ((-22.5, 0.0, 20.0), ((-0.3893, -0.3893, -0.8348), 100.289), (-23.5, 12.0), 6.14),
+    # real-arch: onto the flat top of a buccal cusp of the scanned 37 (7.41 mm; the tip's centre
+    # 0.05 mm above it), where the tool is seen over the arch.
+    "real-arch": ((-20.104, -0.347, 16.975), ((-0.3893, -0.3893, -0.8348), 100.289), (23.75, 9.75), 7.46),
     "friction-block": ((-25.0, 0.0, 10.0), ((0, 1, 0), -50.0), (-20.0, 0.0), 0.05),
     "boundary-square": ((-45.0, -45.0, 10.0), ((0, 1, 0), -50.0), (-40.0, -40.0), 0.05),
     "boundary-triangle": ((-45.0, -45.0, 10.0), ((0, 1, 0), -50.0), (-40.0, -40.0), 0.05),

@@ -34,8 +34,10 @@ constexpr double kMinCuboidEdge = 0.01;     // mm, thinnest cuboid edge (make_cu
 // Hz, the real-time servo loop's limit (servo/servo.hpp kMaxServoRate, DESIGN.md §5: up to 10 kHz);
 // a scene asking for more passed `scene check` and then failed in `cariesim servo`.
 constexpr double kMaxSceneServoRate = 10000.0;
+// A mesh file named with this prefix lies in the shipped data folder (data_directory()).
+constexpr std::string_view kDataPrefix = "data:";
 constexpr double kDefaultCariesStiffness = 4.0;  // N/mm, sliding stiffness of caries without a preset
-constexpr int kMaxParts = 64;               // collision objects a model can hold (ObjectMask)
+constexpr int kMaxParts = 64;                    // collision objects a model can hold (ObjectMask)
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
@@ -75,19 +77,30 @@ ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string&
   s.kind = static_cast<ShapeDesc::Kind>(type);
   switch (s.kind) {
     case ShapeDesc::Kind::Mesh: {
-      // A mesh file, relative to the scene file; it must exist.
+      // A mesh file, relative to the scene file or ("data:PATH") in the shipped data folder; it must
+      // exist.
       const Fields f(r, node, path, {"type", "file", "scale"});
       const YAML::Node file = f.require("file");
       const std::string name = r.text(file, f.sub("file"));
       if (name.empty()) r.fail(file, f.sub("file"), "empty file name");
-      const std::filesystem::path given(name);
-      s.file = (given.is_absolute() ? given : base_dir / given).lexically_normal();
+      const bool in_data = name.starts_with(kDataPrefix);
+      const std::filesystem::path given(in_data ? name.substr(kDataPrefix.size()) : name);
+      if (in_data && (given.empty() || given.is_absolute())) {
+        r.fail(file, f.sub("file"),
+               fmt::format("'{}': expected a relative path after '{}'", name, kDataPrefix));
+      }
+      const std::filesystem::path base = in_data ? data_directory() : base_dir;
+      s.file = (given.is_absolute() ? given : base / given).lexically_normal();
       std::error_code ec;
       if (std::filesystem::is_directory(s.file, ec)) {
         r.fail(file, f.sub("file"), fmt::format("{} is a directory, not a mesh file", s.file.string()));
       }
       if (!std::filesystem::is_regular_file(s.file, ec)) {
-        r.fail(file, f.sub("file"), fmt::format("mesh file not found: {}", s.file.string()));
+        r.fail(file, f.sub("file"),
+               in_data ? fmt::format("mesh file not found: {} ('{}' in the data folder {}; set "
+                                     "CARIESIM_DATA_DIR to the repository's data/ folder)",
+                                     s.file.string(), name, data_directory().string())
+                       : fmt::format("mesh file not found: {}", s.file.string()));
       }
       f.positive("scale", s.scale, 1e4, "");
       break;
@@ -401,10 +414,9 @@ KcProfile read_kc(const Reader& r, const YAML::Node& node, const std::string& pa
 
 // A lesion's material: preset (severity) plus overrides.
 void read_lesion_material(const Reader& r, const YAML::Node& node, const std::string& path, LesionDesc& l) {
-  const Fields f(
-      r, node, path,
-      {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "crush_length", "f_p_star", "f_e_star",
-       "k_theta"});
+  const Fields f(r, node, path,
+                 {"stiffness", "k_e", "mu_s", "mu_d", "anisotropic", "k_c", "crush_length", "f_p_star",
+                  "f_e_star", "k_theta"});
   Material& m = l.material;
   // The sliding contact stiffness is its own parameter (see caries_preset): k_e does not change it.
   f.positive("k_e", m.k_e, kMaxStiffness, "N/mm");

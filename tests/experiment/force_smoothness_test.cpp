@@ -16,8 +16,8 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(ForceSmoothness, RasterOverARealMolarHasNoKnocks) {
-  const fs::path data = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_19.stl";
-  if (!fs::exists(data)) GTEST_SKIP() << "shared data absent: " << data;
+  const fs::path data = fs::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_19.ply";
+  if (!fs::exists(data)) GTEST_SKIP() << "shipped scan missing: " << data;
   const fs::path root(CARIESIM_SOURCE_DIR);
   const Model model = build_model(load_scene((root / "scenes/examples/real-molar-36.yaml").string()));
   const Trajectory raster = load_trajectory_csv(root / "scenes/trajectories/real-raster-36.csv");

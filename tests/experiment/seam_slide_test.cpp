@@ -205,8 +205,8 @@ std::optional<Vec3> cross(const TriangleMesh& mesh, const Vec3& p, const Vec3& d
 // lesion's border, into the lesion and out of it.
 TEST(RealToothSeam, EqualMaterialSlideShowsNoBorder) {
   const fs::path scene_file = fs::path(CARIESIM_SOURCE_DIR) / "scenes/examples/real-tooth.yaml";
-  const fs::path scan = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw/patient26/tooth_30.stl";
-  if (!fs::exists(scan)) GTEST_SKIP() << "the shared scan " << scan << " is missing (../shared/data)";
+  const fs::path scan = fs::path(CARIESIM_DATA_DIR) / "open-full-jaw/patient26/tooth_30.ply";
+  if (!fs::exists(scan)) GTEST_SKIP() << "the shipped scan " << scan << " is missing";
   const SceneDesc scene = load_scene(scene_file.string());
   const Model model = equal_materials(build_model(scene));
   ASSERT_EQ(model.lesions.size(), 1u);

@@ -455,8 +455,8 @@ class RealScan : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(RealScan, LoadsWatertightWithPlausibleSize) {
   const std::filesystem::path file =
-      std::filesystem::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / GetParam();
-  if (!std::filesystem::exists(file)) GTEST_SKIP() << "shared scans not present: " << file;
+      std::filesystem::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / GetParam();
+  if (!std::filesystem::exists(file)) GTEST_SKIP() << "shipped scan missing: " << file;
   MeshReport report;
   const TriangleMesh mesh = load_mesh(file, &report);
   for (const auto& w : report.warnings) std::cout << GetParam() << ": " << w << "\n";
@@ -502,7 +502,7 @@ TEST_P(RealScan, LoadsWatertightWithPlausibleSize) {
   EXPECT_LT(crown.sizes().y(), 12.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Patient26, RealScan, ::testing::Values("tooth_19.stl", "tooth_30.stl"));
+INSTANTIATE_TEST_SUITE_P(Patient26, RealScan, ::testing::Values("tooth_19.ply", "tooth_30.ply"));
 
 }  // namespace
 }  // namespace cariesim

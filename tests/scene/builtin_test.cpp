@@ -1,14 +1,16 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-
-#include <cmath>
+#include <stdlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 
+#include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "support/files.hpp"
 
@@ -22,9 +24,9 @@ const std::filesystem::path kScenes = std::filesystem::path(CARIESIM_SOURCE_DIR)
 TEST(BuiltinScenes, DefaultFirstAndAllPresent) {
   const auto names = builtin_scene_names();
   ASSERT_FALSE(names.empty());
-  EXPECT_EQ(names.front(), "oral-cavity");
-  for (const char* expected : {"oral-cavity", "friction-block", "boundary-square", "boundary-triangle",
-                               "boundary-circle", "insertion-blocks"}) {
+  EXPECT_EQ(names.front(), "real-arch");  // the default
+  for (const char* expected : {"oral-cavity", "real-arch", "friction-block", "boundary-square",
+                               "boundary-triangle", "boundary-circle", "insertion-blocks"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   }
   EXPECT_TRUE(builtin_scene_yaml("no-such-scene").empty());
@@ -151,6 +153,86 @@ TEST(BuiltinScenes, ExperimentBlocksFollowThePaper) {
   EXPECT_GT(healthy_cube.pose.p.x(), caries_cube.pose.p.x());
   EXPECT_TRUE(std::isinf(healthy_cube.material.stiffness))
       << "the healthy cube must be rigid: the probe may not enter it (issue 4)";
+}
+
+// The real arch (issue #12): the sixteen shipped scans, one pose for all (their scanned positions),
+// fine trees on 36, 46 and their neighbours, gingiva and tongue, the paper's three lesion sites.
+TEST(BuiltinScenes, RealArchIsTheScannedArch) {
+  const SceneDesc s = load_scene("real-arch");
+  const std::filesystem::path scans = data_directory() / "open-full-jaw" / "patient26";
+  auto tooth = [&](int fdi) -> const ObjectDesc* {
+    for (const auto& o : s.objects)
+      if (o.fdi == fdi) return &o;
+    return nullptr;
+  };
+  int teeth = 0;
+  for (int quadrant : {3, 4}) {
+    for (int t = 1; t <= 8; ++t) {
+      const int fdi = 10 * quadrant + t;
+      const ObjectDesc* o = tooth(fdi);
+      ASSERT_NE(o, nullptr) << fdi;
+      ++teeth;
+      // Universal number: 17 + (8 - t) on the left (quadrant 3), 24 + t on the right (quadrant 4).
+      const int universal = quadrant == 3 ? 25 - t : 24 + t;
+      EXPECT_EQ(o->shape.kind, ShapeDesc::Kind::Mesh) << fdi;
+      EXPECT_EQ(o->shape.file, (scans / ("tooth_" + std::to_string(universal) + ".ply")).lexically_normal())
+          << fdi;
+      EXPECT_EQ(o->kind, ObjectKind::Rigid) << fdi;
+      EXPECT_TRUE(o->pose.p.isApprox(tooth(46)->pose.p) && o->pose.q.isApprox(tooth(46)->pose.q))
+          << fdi << ": every scan keeps its scanned position";
+      const bool fine = t >= 5 && t <= 7;  // 35-37 and 45-47
+      EXPECT_DOUBLE_EQ(o->tree.params.tolerance, fine ? 0.015 : 0.05) << fdi;
+    }
+  }
+  EXPECT_EQ(teeth, 16);
+  int gingiva = 0;
+  int tongue = 0;
+  for (const auto& o : s.objects) {
+    gingiva += o.tissue == Tissue::Gingiva;
+    tongue += o.tissue == Tissue::Tongue;
+    if (o.tissue == Tissue::Gingiva) {
+      EXPECT_EQ(o.shape.gingiva.path.size(), 16u) << "one point per tooth";
+    }
+    if (o.tissue == Tissue::Gingiva || o.tissue == Tissue::Tongue) {
+      EXPECT_EQ(o.kind, ObjectKind::Soft) << o.name;
+    }
+  }
+  EXPECT_EQ(gingiva, 1);
+  EXPECT_EQ(tongue, 1);
+
+  // Lesions #1 and #2 on 46, #3 on 36; #1 and #3 occlusal (along the tooth's long axis, within 25
+  // degrees of world up); #2 faces 45 (mesial, toward the front of the mouth).
+  ASSERT_EQ(s.lesions.size(), 3u);
+  EXPECT_EQ(s.objects[static_cast<std::size_t>(s.lesions[0].object)].fdi, 46);
+  EXPECT_EQ(s.objects[static_cast<std::size_t>(s.lesions[1].object)].fdi, 46);
+  EXPECT_EQ(s.objects[static_cast<std::size_t>(s.lesions[2].object)].fdi, 36);
+  EXPECT_NE(s.lesions[0].severity, s.lesions[2].severity);
+  for (const auto* l : {&s.lesions[0], &s.lesions[2]}) {
+    EXPECT_GT(lesion_shape_in_world(s, *l).normal.z(), std::cos(25.0 * std::numbers::pi / 180.0)) << l->name;
+  }
+  const LesionShape l2 = lesion_shape_in_world(s, s.lesions[1]);
+  EXPECT_LT(std::abs(l2.normal.z()), 0.5) << "a proximal surface, not an occlusal one";
+  EXPECT_LT(l2.normal.y(), -0.8) << "46's mesial surface faces the front of the mouth, toward 45";
+  // The tool starts above 46.
+  ASSERT_TRUE(s.tool_home.has_value());
+  EXPECT_LT(s.tool_home->p.x(), -15.0);
+  EXPECT_GT(s.tool_home->p.z(), 10.0);
+}
+
+// A built-in scene whose scans are missing says which file and which data folder, and stops.
+TEST(BuiltinScenes, RealArchWithoutItsDataIsAClearError) {
+  ASSERT_EQ(::setenv("CARIESIM_DATA_DIR", "/nonexistent/cariesim-data", 1), 0);
+  try {
+    (void)load_scene("real-arch");
+    ADD_FAILURE() << "loaded without its scans";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("builtin:real-arch"));
+    EXPECT_THAT(e.what(),
+                ::testing::HasSubstr(
+                    "mesh file not found: /nonexistent/cariesim-data/open-full-jaw/patient26/tooth_32.ply"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("CARIESIM_DATA_DIR"));
+  }
+  ASSERT_EQ(::unsetenv("CARIESIM_DATA_DIR"), 0);
 }
 
 // docs/scene-format.md shows scenes/examples/commented.yaml verbatim; it parses.

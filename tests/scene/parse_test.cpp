@@ -376,6 +376,43 @@ TEST(ParseScene, MeshPathIsRelativeToTheSceneFile) {
   std::filesystem::remove_all(dir);
 }
 
+// "data:PATH" is PATH in the shipped data folder, wherever the scene lies: the build's data/ folder,
+// or $CARIESIM_DATA_DIR when set.
+TEST(ParseScene, DataPrefixReadsTheShippedDataFolder) {
+  ASSERT_EQ(::unsetenv("CARIESIM_DATA_DIR"), 0);
+  EXPECT_EQ(data_directory(), std::filesystem::path(CARIESIM_DATA_DIR));
+  const std::string yaml =
+      "objects:\n  - name: scan\n    shape: {type: mesh, file: "
+      "'data:open-full-jaw/patient26/tooth_30.ply'}\n";
+  const SceneDesc s = parse_scene(yaml, "/elsewhere/scene.yaml");
+  EXPECT_EQ(
+      s.objects[0].shape.file,
+      (std::filesystem::path(CARIESIM_DATA_DIR) / "open-full-jaw/patient26/tooth_30.ply").lexically_normal());
+
+  // Another folder through the environment; a file missing there is named with the folder.
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cariesim_data_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "scans");
+  std::ofstream(dir / "scans" / "part.stl") << "solid empty\nendsolid empty\n";
+  ASSERT_EQ(::setenv("CARIESIM_DATA_DIR", dir.c_str(), 1), 0);
+  EXPECT_EQ(parse_scene("objects:\n  - name: scan\n    shape: {type: mesh, file: 'data:scans/part.stl'}\n",
+                        "x.yaml")
+                .objects[0]
+                .shape.file,
+            (dir / "scans" / "part.stl").lexically_normal());
+  const std::string missing =
+      error_of("objects:\n  - name: scan\n    shape: {type: mesh, file: 'data:scans/tooth_99.ply'}\n");
+  EXPECT_THAT(missing, HasSubstr("objects[0].shape.file: mesh file not found: " +
+                                 (dir / "scans" / "tooth_99.ply").string()));
+  EXPECT_THAT(missing, HasSubstr("in the data folder " + dir.string()));
+  EXPECT_THAT(error_of("objects:\n  - name: scan\n    shape: {type: mesh, file: 'data:'}\n"),
+              HasSubstr("expected a relative path after 'data:'"));
+  EXPECT_THAT(error_of("objects:\n  - name: scan\n    shape: {type: mesh, file: 'data:/etc/passwd'}\n"),
+              HasSubstr("expected a relative path after 'data:'"));
+  ASSERT_EQ(::unsetenv("CARIESIM_DATA_DIR"), 0);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(LoadScene, UnknownNameListsTheBuiltIns) {
   try {
     (void)load_scene("no-such-scene");

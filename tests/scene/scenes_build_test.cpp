@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <string>
 
@@ -135,6 +133,113 @@ TEST_F(OralCavity, InterproximalGapIsProbeSized) {
   }
 }
 
+// The real arch (issue #12), built once per test program from the shipped scans (cached in the
+// build folder's test cache, which EveryBuiltInBuilds shares).
+class RealArch : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { model_ = new Model(build_model(load_scene("real-arch"), test_options())); }
+  static void TearDownTestSuite() {
+    delete model_;
+    model_ = nullptr;
+  }
+  static const CollisionObject& object(const std::string& name) {
+    const int i = object_named(*model_, name);
+    EXPECT_GE(i, 0) << name;
+    return model_->objects[static_cast<std::size_t>(std::max(i, 0))];
+  }
+  static Model* model_;
+};
+Model* RealArch::model_ = nullptr;
+
+TEST_F(RealArch, BuildsEveryToothGumsAndTongue) {
+  const Model& m = *model_;
+  EXPECT_EQ(m.objects.size(), 21u);  // 16 teeth, gingiva, tongue, 3 caries parts
+  for (const CollisionObject& o : m.objects) {
+    EXPECT_GT(o.tree.leaf_count(), 100u) << o.name;
+    EXPECT_EQ(check_tree(o.tree, 1e-3), "") << o.name;
+  }
+  EXPECT_EQ(object("gingiva").kind, ObjectKind::Soft);
+  EXPECT_EQ(object("tongue").kind, ObjectKind::Soft);
+  PlacedTool tool(m.tool.tree);
+  tool.place(m.tool_home, 0.0);
+  EXPECT_GE(closest(tool, m.objects, kAllObjects, 5.0).gap, 0.0);
+
+  // Every crown stands clear of the gums and every root apex is inside them; the tongue touches no
+  // tooth.
+  const SphereTree& gums = object("gingiva").tree;
+  for (const CollisionObject& o : m.objects) {
+    if (o.name.rfind("tooth", 0) != 0 || o.lesion >= 0) continue;
+    Vec3 top(0, 0, -1e9);
+    Vec3 apex(0, 0, 1e9);
+    for (const uint32_t n : o.tree.leaf_nodes) {
+      const Vec3 c = o.tree.nodes[n].center.cast<double>();
+      if (c.z() > top.z()) top = c;
+      if (c.z() < apex.z()) apex = c;
+    }
+    EXPECT_GT(gap_to_leaves(gums, top), 3.0) << o.name << ": the crown is exposed";
+    EXPECT_LT(gap_to_leaves(gums, apex), 0.0) << o.name << ": the root is covered";
+    EXPECT_GT(gap_between(m, object_named(m, "tongue"), object_named(m, o.name)), 0.5) << o.name;
+  }
+}
+
+TEST_F(RealArch, LesionsSitOnTheirTeeth) {
+  const Model& m = *model_;
+  ASSERT_EQ(m.lesions.size(), 3u);
+  EXPECT_EQ(m.lesions[0].host, object_named(m, "tooth46/healthy"));
+  EXPECT_EQ(m.lesions[1].host, object_named(m, "tooth46/healthy"));
+  EXPECT_EQ(m.lesions[2].host, object_named(m, "tooth36/healthy"));
+  for (const LesionModel& l : m.lesions) {
+    const CollisionObject& caries = m.objects[static_cast<std::size_t>(l.object)];
+    EXPECT_GT(caries.tree.leaf_count(), 10u) << l.name;
+    const float deepest = *std::max_element(caries.tree.leaf_depth.begin(), caries.tree.leaf_depth.end());
+    EXPECT_GT(deepest, 0.3 * l.authored_depth) << l.name;
+    EXPECT_LT(deepest, l.authored_depth + 0.1) << l.name;
+  }
+  // The occlusal lesions were snapped onto their crowns, in the top 3 mm of the tooth.
+  for (const auto& [lesion, tooth] : {std::pair{0, "tooth46/healthy"}, std::pair{2, "tooth36/healthy"}}) {
+    double top = -1e9;
+    const SphereTree& t = object(tooth).tree;
+    for (const uint32_t n : t.leaf_nodes) top = std::max(top, static_cast<double>(t.nodes[n].center.z()));
+    EXPECT_GT(m.lesions[static_cast<std::size_t>(lesion)].shape.center.z(), top - 3.0) << tooth;
+  }
+}
+
+// Lesion #2 sits on 46's mesial surface under the contact with 45: 45 is just in front of it, and
+// an explorer tip reaches it from the buccal or the lingual embrasure but not straight from above.
+TEST_F(RealArch, InterproximalLesionFacesTheContactWith45) {
+  const Model& m = *model_;
+  const LesionShape& l = m.lesions[1].shape;
+  const SphereTree& t45 = object("tooth45").tree;
+  const SphereTree& t46 = object("tooth46/healthy").tree;
+  const double gap45 = gap_to_leaves(t45, l.center);
+  EXPECT_GT(gap45, 0.2);
+  EXPECT_LT(gap45, 1.5);
+  // 45's nearest leaf lies ahead of the lesion's normal.
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 nearest = Vec3::Zero();
+  for (const uint32_t n : t45.leaf_nodes) {
+    const double d = (t45.nodes[n].center.cast<double>() - l.center).norm() - t45.nodes[n].radius;
+    if (d < best) best = d, nearest = t45.nodes[n].center.cast<double>();
+  }
+  EXPECT_GT((nearest - l.center).normalized().dot(l.normal), 0.5);
+
+  // The tip (0.05 mm) 0.3 mm off the lesion, moved up, runs into a crown: hidden from occlusal.
+  const Vec3 start = l.center + 0.3 * l.normal;
+  auto clear = [&](const Vec3& p) { return std::min(gap_to_leaves(t45, p), gap_to_leaves(t46, p)) > 0.05; };
+  bool blocked_above = false;
+  for (double k = 0.25; k <= 8.0; k += 0.25) blocked_above |= !clear(start + k * Vec3::UnitZ());
+  EXPECT_TRUE(blocked_above) << "the lesion is visible straight from above";
+  // Moved out along the surface, bucco-lingually, it comes free on one side at least.
+  const Vec3 across = (l.tangent - l.tangent.dot(l.normal) * l.normal).normalized();
+  bool open_side = false;
+  for (const double side : {1.0, -1.0}) {
+    bool free = true;
+    for (double k = 0.0; k <= 8.0; k += 0.25) free &= clear(start + side * k * across);
+    open_side |= free;
+  }
+  EXPECT_TRUE(open_side) << "no embrasure leads to the lesion";
+}
+
 // Every built-in scene builds: trees for every part, a lesion part per lesion, a free home pose.
 TEST(BuiltinScenesBuild, EveryBuiltInBuilds) {
   for (const auto& name : builtin_scene_names()) {
@@ -159,18 +264,10 @@ TEST(BuiltinScenesBuild, EveryBuiltInBuilds) {
 
 // scenes/examples/real-tooth.yaml: a real scan by a path relative to the scene file, with a lesion.
 TEST(ExampleScenes, RealToothScanBuilds) {
-  const fs::path data = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.stl";
-  if (!fs::exists(data)) GTEST_SKIP() << "shared data absent: " << data;
-  // From its place in the checkout when the data sits beside it; else as if the checkout did.
-  const fs::path file = fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml";
-  const fs::path beside = file.parent_path() / "../../../shared/data/open-full-jaw/patient26/tooth_30.stl";
-  const fs::path origin = fs::exists(beside)
-                              ? file
-                              : fs::path(CARIESIM_SHARED_DATA_DIR).parent_path().parent_path() / "checkout" /
-                                    "scenes" / "examples" / "real-tooth.yaml";
-  std::ifstream in(file, std::ios::binary);
-  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  const SceneDesc scene = parse_scene(text, origin);
+  const fs::path data = fs::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / "tooth_30.ply";
+  if (!fs::exists(data)) GTEST_SKIP() << "shipped scan missing: " << data;
+  const SceneDesc scene =
+      load_scene((fs::path(CARIESIM_SOURCE_DIR) / "scenes" / "examples" / "real-tooth.yaml").string());
   ASSERT_EQ(scene.objects.size(), 1u);
   EXPECT_EQ(fs::weakly_canonical(scene.objects[0].shape.file), fs::weakly_canonical(data));
 

@@ -64,8 +64,8 @@ INSTANTIATE_TEST_SUITE_P(Scenes, BoundarySeamDeviation,
                          });
 
 TEST(RealToothSeamDeviation, PartsFollowTheUncutSurfaceAcrossTheBorder) {
-  const fs::path scan = fs::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw/patient26/tooth_30.stl";
-  if (!fs::exists(scan)) GTEST_SKIP() << "the shared scan " << scan << " is missing (../shared/data)";
+  const fs::path scan = fs::path(CARIESIM_DATA_DIR) / "open-full-jaw/patient26/tooth_30.ply";
+  if (!fs::exists(scan)) GTEST_SKIP() << "the shipped scan " << scan << " is missing";
   expect_closed_seams(
       load_scene((fs::path(CARIESIM_SOURCE_DIR) / "scenes/examples/real-tooth.yaml").string()));
 }

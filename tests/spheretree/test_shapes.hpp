@@ -63,10 +63,10 @@ inline TriangleMesh make_box(const Vec3& lo, const Vec3& hi) {
   return mesh;
 }
 
-/// A real tooth scan from the shared data (empty path when the data folder is missing).
+/// A real tooth scan shipped in data/open-full-jaw (empty path when the file is missing).
 inline std::filesystem::path scan_path(const std::string& tooth) {
   const std::filesystem::path p =
-      std::filesystem::path(CARIESIM_SHARED_DATA_DIR) / "open-full-jaw" / "patient26" / (tooth + ".stl");
+      std::filesystem::path(CARIESIM_DATA_DIR) / "open-full-jaw" / "patient26" / (tooth + ".ply");
   return std::filesystem::exists(p) ? p : std::filesystem::path();
 }
 

@@ -318,15 +318,15 @@ TEST_P(ViewerPreset, LooksAtTheTipFromItsSide) {
 INSTANTIATE_TEST_SUITE_P(Presets, ViewerPreset,
                          ::testing::Values("occlusal", "buccal", "lingual", "operator"));
 
-// The default: oral-cavity with the mouse device; the tool waits at its home, free.
-TEST(ViewerXvfbDefault, MouseOnOralCavity) {
+// The default: real-arch with the mouse device; the tool waits at its home, free.
+TEST(ViewerXvfbDefault, MouseOnTheRealArch) {
   if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
   const fs::path png = artefacts() / "default-mouse.png";
   const RunResult r = run_under_xvfb("run --no-realtime --exit-after 1.5 --screenshot '" + png.string() + "'",
                                      "default-mouse");
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   const Status status = read_status(artefacts() / "default-mouse.json");
-  EXPECT_EQ(status.text.at("scene"), "oral-cavity");
+  EXPECT_EQ(status.text.at("scene"), "real-arch");
   EXPECT_EQ(status.text.at("device"), "mouse");
   EXPECT_EQ(status.text.at("state"), "free");
   EXPECT_THAT(r.out, HasSubstr("servo:"));
@@ -362,7 +362,7 @@ TEST(ScriptsRun, FallsBackToXvfbWithoutADisplay) {
   EXPECT_THAT(log, HasSubstr("xvfb-run"));
   ASSERT_TRUE(fs::exists(png) && fs::exists(json)) << log;
   const Status s = read_status(json);
-  EXPECT_EQ(s.text.at("scene"), "oral-cavity");
+  EXPECT_EQ(s.text.at("scene"), "real-arch");
   EXPECT_EQ(s.text.at("device"), "mouse");
   EXPECT_GE(s.number.at("t").at(0), 1.5);
 }

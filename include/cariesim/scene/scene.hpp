@@ -28,6 +28,12 @@ std::vector<std::string> builtin_scene_names();
 /// The YAML text of a built-in scene; empty when there is none of that name.
 std::string_view builtin_scene_yaml(std::string_view name);
 
+/// The folder of the data the program ships (data/ in the repository: the real tooth scans under
+/// open-full-jaw/): $CARIESIM_DATA_DIR when set and not empty, else the folder the build recorded.
+/// A scene's mesh file named "data:PATH" is PATH in this folder (the built-in real-arch scene's
+/// teeth). It is not checked here: a missing file is reported where it is used.
+std::filesystem::path data_directory();
+
 /// A one-object scene around a mesh file (`cariesim tree MESH`): identity pose, rigid generic
 /// tissue, no lesions. Throws cariesim::Error when the file does not exist.
 SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree = {});
