@@ -83,8 +83,9 @@ SceneView::SceneView(const Model& model) : model_(model) {
     p.tissue = part.tissue;
     p.lesion = part.lesion;
     p.object = part.object;
-    p.whole = part.whole;
     p.cut = part.cut;
+    p.has_whole = !part.whole.triangles.empty();
+    if (p.has_whole) p.whole = GlMesh(part.whole);
     p.soft =
         part.object >= 0 && static_cast<std::size_t>(part.object) < n && soft_stiffness_[part.object] > 0.0;
     if (p.soft) p.base = part.mesh.vertices;
@@ -176,7 +177,10 @@ void SceneView::draw(GlRenderer& renderer, const ServoSnapshot& snapshot, const 
   // Opaque: the tissues (an object that lesions cut drawn whole while they are hidden, so that no
   // seam outlines them; revealed, its parts in their colours), the graphic tool, the force arrow.
   for (const Part& part : parts_) {
-    if ((part.whole && settings.show_lesions) || (part.cut && !settings.show_lesions)) continue;
+    if (part.cut && !settings.show_lesions) {
+      if (part.has_whole) renderer.draw_mesh(part.whole, Pose{}, object_color(part.object, settings));
+      continue;
+    }
     const Rgba color =
         part.object >= 0
             ? object_color(part.object, settings)

@@ -73,8 +73,9 @@ class SceneView {
     int lesion = -1;
     int object = -1;
     bool soft = false;
-    bool whole = false;         // drawn while lesions are hidden
-    bool cut = false;           // drawn while lesions are revealed
+    bool cut = false;  // a part of an object that lesions cut: drawn while they are revealed
+    bool has_whole = false;
+    GlMesh whole;  // the cut object's uncut surface: drawn (on its healthy part) while they are hidden
     std::vector<Vec3f> base;    // undeformed vertices (soft parts)
     std::vector<Vec3f> dented;  // scratch
     bool was_dented = false;

@@ -162,9 +162,9 @@ double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch
 /// direction on compliant tissue, so stiffness does not depend on how many spheres overlap) and of
 /// friction (one stick constraint per region).
 struct Region {
-  Vec3 tool_point_local;  ///< mm, tool frame: centre of the deepest tool leaf
-  Vec3 normal;            ///< unit, world, of the deepest pair
-  double gap = 0.0;       ///< mm, of the deepest pair
+  Vec3 tool_point_local = Vec3::Zero();  ///< mm, tool frame: centre of the deepest tool leaf
+  Vec3 normal = Vec3::UnitZ();           ///< unit, world, of the deepest pair
+  double gap = 0.0;                      ///< mm, of the deepest pair
   uint16_t object = 0;
   uint16_t material = 0;
   uint16_t tool_leaf = 0;

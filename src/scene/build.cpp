@@ -474,14 +474,8 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
   // lesions are hidden (a trainee sees no seam).
   if (!b.lesions.empty()) {
     for (std::size_t k = 0; k <= b.lesions.size(); ++k)
-      model.display[model.display.size() - 1 - k].cut = true;
-    DisplayPart whole;
-    whole.name = o.name;
-    whole.mesh = b.world_mesh();
-    whole.tissue = o.tissue;
-    whole.object = static_cast<int16_t>(healthy_index);
-    whole.whole = true;
-    model.display.push_back(std::move(whole));
+      model.display[static_cast<std::size_t>(healthy_index) + k].cut = true;
+    model.display[static_cast<std::size_t>(healthy_index)].whole = b.world_mesh();
   }
 
   // Seam deviation (on request): every part of the object together against its uncut surface, on a

@@ -123,20 +123,16 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
   EXPECT_LE(gap_to_leaves(model.objects[1].tree, inside), 0.0);
   EXPECT_GT(gap_to_leaves(model.objects[0].tree, inside), 0.0);
 
-  // Display parts: the two cut parts, and the block whole (drawn while the lesion is hidden, so that
-  // no seam between the parts outlines it); the tool and its free home pose.
-  ASSERT_EQ(model.display.size(), 3u);
+  // Display parts: the two cut parts, the healthy one carrying the block whole (drawn while the lesion
+  // is hidden, so that no seam between the parts outlines it); the tool and its free home pose.
+  ASSERT_EQ(model.display.size(), 2u);
   EXPECT_EQ(model.display[1].lesion, 0);
   EXPECT_EQ(model.display[1].tissue, Tissue::Caries);
   EXPECT_FALSE(model.display[0].mesh.triangles.empty());
   EXPECT_TRUE(model.display[0].cut && model.display[1].cut);
-  EXPECT_FALSE(model.display[0].whole || model.display[1].whole);
-  const DisplayPart& whole = model.display[2];
-  EXPECT_TRUE(whole.whole);
-  EXPECT_FALSE(whole.cut);
-  EXPECT_EQ(whole.lesion, -1);
-  EXPECT_EQ(whole.object, 0);
-  EXPECT_EQ(whole.mesh.triangles.size(), make_cuboid(Vec3(6, 6, 4)).triangles.size()) << "the uncut block";
+  EXPECT_EQ(model.display[0].whole.triangles.size(), make_cuboid(Vec3(6, 6, 4)).triangles.size())
+      << "the healthy part carries the uncut block";
+  EXPECT_TRUE(model.display[1].whole.triangles.empty());
   EXPECT_FALSE(model.tool.tree.empty());
   EXPECT_FALSE(model.tool.display.triangles.empty());
   EXPECT_GT(model.tool_home.p.z(), 3.0);  // the default home: above the block, tip lowest

@@ -65,10 +65,11 @@ struct DisplayPart {
   Tissue tissue = Tissue::Generic;
   int16_t lesion = -1;  ///< the lesion a caries part shows, else -1
   int16_t object = -1;  ///< its collision object
-  /// The uncut surface of an object that lesions cut: drawn instead of its cut parts while the
-  /// lesions are hidden, so that no seam between the parts outlines a lesion.
-  bool whole = false;
-  bool cut = false;  ///< one of the parts of an object that lesions cut (drawn when they are revealed)
+  bool cut = false;     ///< one of the parts of an object that lesions cut
+  /// World coordinates; on the first (healthy) part of an object that lesions cut, the object's uncut
+  /// surface, drawn instead of its parts while the lesions are hidden so that no seam between the
+  /// parts outlines a lesion; empty otherwise.
+  TriangleMesh whole;
 };
 
 struct Model {
