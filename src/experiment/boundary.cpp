@@ -21,19 +21,9 @@ constexpr double kHookStall = 0.5;    // mm: a graphic tool this little past the
 
 struct Run {
   const char* name;
-  double from, to;        // mm, haptic x along y = 0, relative to the border
-  double healthy, caries; // N/mm
+  double from, to;         // mm, haptic x along y = 0, relative to the border
+  double healthy, caries;  // N/mm
 };
-
-// Where the lesion's outline crosses the line y = y0 on the surface, from the lesion's side.
-double border_x(const LesionShape& shape, double surface_z, double y0) {
-  double inside = shape.center.x(), outside = shape.center.x() - 200.0;
-  for (int i = 0; i < 60; ++i) {
-    const double mid = 0.5 * (inside + outside);
-    (shape.distance(Vec3(mid, y0, surface_z - 0.5 * shape.depth)) < 0.0 ? inside : outside) = mid;
-  }
-  return 0.5 * (inside + outside);
-}
 
 }  // namespace
 
@@ -43,7 +33,7 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
   if (model.lesions.empty()) throw Error("boundary-square: the scene has no lesion");
   const LesionModel& lesion = model.lesions.front();
   const Vec3 c = lesion.shape.center;
-  const double border = border_x(lesion.shape, c.z(), c.y());
+  const double border = lesion_border_x(lesion.shape, c.z(), c.y());
   const double press_z = c.z() + model.tool.tip_radius - kPressDepth;
 
   const Run runs[] = {
@@ -64,8 +54,10 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
     // The explorer is drawn over the surface with its handle leaning back against the motion, so
     // that the tip (not the shank ahead of it) meets the border: the home posture leans toward -x,
     // turned half a revolution about the vertical for runs toward -x.
-    const Quat q = dir > 0.0 ? model.tool_home.q
-                             : (Quat(Eigen::AngleAxisd(std::numbers::pi, Vec3::UnitZ())) * model.tool_home.q).normalized();
+    const Quat q =
+        dir > 0.0
+            ? model.tool_home.q
+            : (Quat(Eigen::AngleAxisd(std::numbers::pi, Vec3::UnitZ())) * model.tool_home.q).normalized();
     Path path(at(Vec3(x0, c.y(), c.z() + 2.0), q));
     path.to(0.5, at(Vec3(x0, c.y(), press_z), q)).hold(0.3);
     path.to(std::abs(x1 - x0) / kSpeed, at(Vec3(x1, c.y(), press_z), q));
@@ -118,3 +110,16 @@ void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
 }
 
 }  // namespace cariesim::experiment
+
+namespace cariesim {
+
+double lesion_border_x(const LesionShape& shape, double surface_z, double y0) {
+  double inside = shape.center.x(), outside = shape.center.x() - 200.0;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (inside + outside);
+    (shape.distance(Vec3(mid, y0, surface_z - 0.5 * shape.depth)) < 0.0 ? inside : outside) = mid;
+  }
+  return 0.5 * (inside + outside);
+}
+
+}  // namespace cariesim

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/experiment/experiments.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -122,17 +123,6 @@ void expect_no_feature(const SlideTrace& t, double from, double to, const std::s
               what.c_str(), tangential.border, tangential.others, normal.border, normal.others);
 }
 
-// Where the lesion's outline crosses the line y = y0 on the top face, from the lesion's -x side (the
-// boundary experiment's border_x).
-double border_x(const LesionShape& shape, double surface_z, double y0) {
-  double inside = shape.center.x(), outside = shape.center.x() - 200.0;
-  for (int i = 0; i < 60; ++i) {
-    const double mid = 0.5 * (inside + outside);
-    (shape.distance(Vec3(mid, y0, surface_z - 0.5 * shape.depth)) < 0.0 ? inside : outside) = mid;
-  }
-  return 0.5 * (inside + outside);
-}
-
 class BoundarySeam : public ::testing::TestWithParam<std::string> {};
 
 // The boundary experiment's slide (press 0.59 mm, 10 mm/s, handle leaning back against the motion)
@@ -142,7 +132,7 @@ TEST_P(BoundarySeam, EqualMaterialSlideShowsNoBorder) {
   ASSERT_FALSE(model.lesions.empty());
   const LesionShape& shape = model.lesions.front().shape;
   const Vec3 c = shape.center;
-  const double border = border_x(shape, c.z(), c.y());
+  const double border = lesion_border_x(shape, c.z(), c.y());
   const double press_z = c.z() + model.tool.tip_radius - 0.59;
   constexpr double kHalf = 6.0;  // mm of slide each side of the border
   for (const double dir : {1.0, -1.0}) {

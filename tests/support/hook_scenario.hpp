@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "cariesim/common/trajectory.hpp"
+#include "cariesim/experiment/experiments.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
 
@@ -26,14 +27,7 @@ inline HookScenario hook_scenario() {
   HookScenario h{build_model(load_scene("boundary-square")), {}, 0, 0, {}, 0, 0};
   const LesionModel& lesion = h.model.lesions.front();
   const Vec3 c = lesion.shape.center;
-  // The border on y = c.y from the lesion's side (bisection on the lesion's SDF, as the experiment).
-  double inside = c.x(), outside = c.x() - 200.0;
-  for (int i = 0; i < 60; ++i) {
-    const double mid = 0.5 * (inside + outside);
-    (lesion.shape.distance(Vec3(mid, c.y(), c.z() - 0.5 * lesion.shape.depth)) < 0.0 ? inside : outside) =
-        mid;
-  }
-  h.border = 0.5 * (inside + outside);
+  h.border = lesion_border_x(lesion.shape, c.z(), c.y());
   h.y = c.y();
   h.press_z = c.z() + h.model.tool.tip_radius - 0.59;
   h.params = h.model.defaults;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/lesion.hpp"
 
 namespace cariesim {
 
@@ -27,6 +28,11 @@ struct ExperimentOptions {
 
 /// Names accepted by run_experiment, in the order `all` runs them.
 std::vector<std::string> experiment_names();
+
+/// mm, world x where a lesion's outline crosses the line y = y0 half its depth below `surface_z`
+/// (mm), found from the lesion's -x side by bisection on its signed distance: the border the boundary
+/// experiment (Fig. 12) and its tests slide across.
+double lesion_border_x(const LesionShape& shape, double surface_z, double y0);
 
 /// Runs one experiment (or "all", each into its own subfolder) and returns the summary JSON it wrote.
 /// Throws cariesim::Error for an unknown name or an unwritable folder.
