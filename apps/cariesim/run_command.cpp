@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #ifdef CARIESIM_HAS_VIEWER
@@ -27,7 +28,8 @@ struct RunArgs {
   double exit_after = 0.0;  // s of servo time
   bool show_lesions = false;
   bool no_realtime = false;
-  std::string view;  // camera preset; empty: the whole scene framed
+  std::string view;                  // camera preset; empty: the whole scene framed
+  std::vector<int> size{1280, 800};  // px, the window's width and height
 };
 
 int run_simulator(const RunArgs& args) {
@@ -48,6 +50,8 @@ int run_simulator(const RunArgs& args) {
   options.show_lesions = args.show_lesions;
   options.realtime = !args.no_realtime;
   options.view = args.view;
+  options.width = args.size[0];
+  options.height = args.size[1];
   return viewer::run_viewer(options);
 #else
   (void)args;
@@ -77,6 +81,10 @@ void register_run(CLI::App& app, Registry& registry) {
                   "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
       ->needs(exit_after);
   sub->add_flag("--show-lesions", args->show_lesions, "Start with the lesions revealed (hidden by default)");
+  sub->add_option("--size", args->size, "Window width and height in pixels (the window can be resized)")
+      ->expected(2)
+      ->check(CLI::Range(320, 8192))
+      ->capture_default_str();
   sub->add_option("--view", args->view,
                   "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
       ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));

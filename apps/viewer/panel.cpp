@@ -83,6 +83,8 @@ void ViewerApp::draw_panel() {
     ImGui::TextWrapped("%s", panel_.message.c_str());
     if (panel_.message_is_error) ImGui::PopStyleColor();
   }
+  // How far the panel scrolls when its content is taller than the window (px).
+  panel_.scroll_max = ImGui::GetScrollMaxY();
   ImGui::End();
 }
 
@@ -395,6 +397,7 @@ std::string ViewerApp::status_json(int width, int height) const {
       .field("y", static_cast<double>(panel_.y * scale.y));
   json.field("w", static_cast<double>(panel_.w * scale.x))
       .field("h", static_cast<double>(panel_.h * scale.y));
+  json.field("scroll_max", static_cast<double>(panel_.scroll_max * scale.y));
   json.end_object();
   json.field("camera", preset_ ? preset_name(*preset_) : "framed");
   json.key("view")

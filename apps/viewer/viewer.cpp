@@ -108,6 +108,7 @@ void ViewerApp::open_window() {
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  glfwWindowHint(GLFW_RESIZABLE, GLFW_TRUE);  // the view and the docked panel follow the window's size
   window_ = glfwCreateWindow(options_.width, options_.height, "cariesim", nullptr, nullptr);
   if (window_ == nullptr)
     throw Error(fmt::format("cannot open an OpenGL 3.3 core window ({})", glfw_error()));

@@ -61,6 +61,7 @@ struct PanelState {
   bool message_is_error = false;
   float force_scale = 1.0f;          ///< global force scale, in [0, 1]
   float x = 0, y = 0, w = 0, h = 0;  ///< px, where the panel window was drawn last
+  float scroll_max = 0;              ///< px, how far its content scrolls (0: it fits)
 };
 
 class ViewerApp {

@@ -84,7 +84,7 @@ for k in ("force_norm", "rendered_force_norm", "depth", "t", "width", "height"):
     print("N", k, d[k])
 print("N background", *d["background"])
 print("N tool_color", *d["tool_color"])
-p = d["panel"]; print("N panel", p["x"], p["y"], p["w"], p["h"])
+p = d["panel"]; print("N panel", p["x"], p["y"], p["w"], p["h"]); print("N scroll_max", p.get("scroll_max", 0))
 v = d["view"]; print("N view", v["x"], v["y"], v["w"], v["h"])
 if d["tip"] is not None: print("N tip", *d["tip"])
 for q in d["tool_points"]: print("P", *q)
@@ -317,6 +317,27 @@ TEST_P(ViewerPreset, LooksAtTheTipFromItsSide) {
 
 INSTANTIATE_TEST_SUITE_P(Presets, ViewerPreset,
                          ::testing::Values("occlusal", "buccal", "lingual", "operator"));
+
+// Another window size: the 3-D view and the docked panel follow it, and the panel, taller than a
+// 500 px window, scrolls.
+TEST(ViewerXvfbSize, ViewAndPanelFollowTheWindowAndThePanelScrolls) {
+  if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
+  const fs::path png = artefacts() / "size-900x500.png";
+  const RunResult r = run_under_xvfb(
+      "run --scene oral-cavity --device null --size 900 500 --no-realtime --exit-after 1 --screenshot '" +
+          png.string() + "'",
+      "size-900x500");
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const Status status = read_status(artefacts() / "size-900x500.json");
+  EXPECT_EQ(status.number.at("width").at(0), 900.0);
+  EXPECT_EQ(status.number.at("height").at(0), 500.0);
+  const std::vector<double>& p = status.number.at("panel");
+  const std::vector<double>& v = status.number.at("view");
+  EXPECT_NEAR(p[0] + p[2], 900.0, 1.0) << "the panel docks at the right edge";
+  EXPECT_NEAR(p[3], 500.0, 1.0) << "the panel takes the window's height";
+  EXPECT_NEAR(v[2], 900.0 - p[2], 1.0) << "the view takes the rest";
+  EXPECT_GT(status.number.at("scroll_max").at(0), 0.0) << "the panel's content scrolls";
+}
 
 // The default: real-arch with the mouse device; the tool waits at its home, free.
 TEST(ViewerXvfbDefault, MouseOnTheRealArch) {
