@@ -1,5 +1,8 @@
 #pragma once
 // Running the `cariesim` binary from the command-line tests.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 
@@ -15,5 +18,24 @@ struct CommandResult {
 /// front; its streams go through files in `scratch`.
 CommandResult run_cariesim(const std::string& args, const std::filesystem::path& scratch,
                            const std::string& env = "");
+
+/// A fixture with a scratch folder per test (`dir_`, under the temporary directory, named from
+/// `prefix`, the test's name and the process id), made empty before the test and removed after it.
+class ScratchTest : public ::testing::Test {
+ protected:
+  explicit ScratchTest(std::string prefix) : prefix_(std::move(prefix)) {}
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = std::filesystem::temp_directory_path() /
+           (prefix_ + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path dir_;
+
+ private:
+  std::string prefix_;
+};
 
 }  // namespace cariesim::test

@@ -23,16 +23,9 @@ using Result = cariesim::test::CommandResult;
 using cariesim::test::read_text;
 
 // A scratch folder per test, removed afterwards.
-class CliTest : public ::testing::Test {
+class CliTest : public cariesim::test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("cariesim_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  CliTest() : ScratchTest("cariesim_cli_") {}
 
   // Runs `cariesim ARGS` with the cache in the scratch folder; captures both streams.
   Result run(const std::string& args) const {
@@ -56,8 +49,6 @@ class CliTest : public ::testing::Test {
     EXPECT_TRUE(WIFEXITED(raw) && WEXITSTATUS(raw) == 0) << read_text(result) << "\nJSON:\n" << json;
     return read_text(result);
   }
-
-  fs::path dir_;
 };
 
 // A closed cube of side `s` mm as ASCII STL (12 outward triangles).

@@ -19,16 +19,9 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 namespace fs = std::filesystem;
 
-class Reliability : public ::testing::Test {
+class Reliability : public test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("cariesim_rel_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  Reliability() : ScratchTest("cariesim_rel_") {}
 
   // Runs `cariesim ARGS` (with the default tree cache, shared with the other command-line tests).
   test::CommandResult run(const std::string& args) const { return test::run_cariesim(args, dir_); }
@@ -56,8 +49,6 @@ class Reliability : public ::testing::Test {
   fs::path short_trajectory() const {
     return write("path.csv", "t,px,py,pz,qw,qx,qy,qz\n0,-25,0,10,1,0,0,0\n0.2,-24,0,10,1,0,0,0\n");
   }
-
-  fs::path dir_;
 };
 
 // Item 7: NaN passed every number check of the command line (CLI11's Range and NonNegativeNumber

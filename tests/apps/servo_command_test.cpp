@@ -24,16 +24,9 @@ namespace fs = std::filesystem;
 
 using cariesim::test::read_text;
 
-class ServoCommand : public ::testing::Test {
+class ServoCommand : public test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("cariesim_servo_cmd_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  ServoCommand() : ScratchTest("cariesim_servo_cmd_") {}
 
   // Runs `cariesim ARGS`; returns the exit status, keeps stderr in err_.
   int run(const std::string& args) {
@@ -42,7 +35,6 @@ class ServoCommand : public ::testing::Test {
     return r.status;
   }
 
-  fs::path dir_;
   std::string err_;
 };
 
