@@ -7,6 +7,8 @@ find_package(spdlog REQUIRED)
 find_package(fmt REQUIRED)
 find_package(TBB REQUIRED)
 find_package(Threads REQUIRED)
+# Boost.Math (header only): the F distribution of the reports' one-way ANOVA (training module).
+find_package(Boost 1.74 REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(SQLITE3 REQUIRED IMPORTED_TARGET sqlite3)
 

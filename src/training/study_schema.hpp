@@ -1,0 +1,61 @@
+#pragma once
+// The study database (docs/training.md): what `cariesim study run` and the viewer's trainee mode write,
+// one row per trial with its participant, study, seed, answers and scores, and what `cariesim report`
+// merges across stations. The motion of each trial is an ordinary session recording (record module)
+// that the trial row names; the scores are kept in long form so a report needs no study-specific code.
+#include <string_view>
+
+namespace cariesim::training {
+
+/// schema_version.version of a study database; readers refuse other versions by name.
+inline constexpr int kStudySchemaVersion = 1;
+/// PRAGMA application_id of a study database ("CRST"), beside the recordings' "CRSM".
+inline constexpr int kStudyApplicationId = 0x43525354;
+
+/// Tables of a study database, created in one script on a new file.
+///   trials: one row per trial; `ended_at` stays NULL for a trial that did not finish (a crash or
+///           an abandoned case), `recording` is the trial's session recording, relative to the study
+///           database's folder; `answers` and `scores` are JSON objects (docs/training.md).
+///   scores: the same scores in long form: `name` from kScore*, `level` "mild"/"severe", a shape
+///           name, or "" when the score has no level; `unit` "", "N/mm", "s", "N", "count",
+///           "fraction".
+inline constexpr std::string_view kStudySchemaSql =
+    "CREATE TABLE schema_version (version INTEGER NOT NULL, application TEXT NOT NULL);"
+    "CREATE TABLE trials (id INTEGER PRIMARY KEY, station TEXT NOT NULL, participant TEXT NOT NULL,"
+    " study TEXT NOT NULL, kind TEXT NOT NULL, trial INTEGER NOT NULL, seed INTEGER NOT NULL,"
+    " started_at TEXT NOT NULL, ended_at TEXT, recording TEXT, answers TEXT NOT NULL,"
+    " scores TEXT NOT NULL);"
+    "CREATE TABLE scores (trial_id INTEGER NOT NULL REFERENCES trials(id), name TEXT NOT NULL,"
+    " level TEXT NOT NULL, value REAL NOT NULL, unit TEXT NOT NULL);"
+    "CREATE INDEX scores_by_trial ON scores (trial_id);";
+
+/// trials.kind
+inline constexpr std::string_view kKindTuning = "tuning";
+inline constexpr std::string_view kKindBoundary = "boundary-shapes";
+inline constexpr std::string_view kKindDiagnosis = "diagnosis";
+
+// scores.name. Tuning (Tables 1-2), per level mild/severe:
+inline constexpr std::string_view kScoreMuS = "mu_s";  // static friction coefficient, unit ""
+inline constexpr std::string_view kScoreMuD = "mu_d";  // dynamic friction coefficient, unit ""
+inline constexpr std::string_view kScoreKc = "k_c";    // N/mm
+inline constexpr std::string_view kScoreKe = "k_e";    // N/mm
+// Boundary shapes (§4.2.2): one point when all three shapes are named right (level ""), and each
+// shape's answer (level = the hidden shape's name), both 0 or 1, unit "".
+inline constexpr std::string_view kScoreBoundaryPoint = "boundary_point";
+inline constexpr std::string_view kScoreShapeCorrect = "shape_correct";
+// Diagnosis (§5.3), level "" unless noted:
+inline constexpr std::string_view kScoreLesions = "lesions";                  // count
+inline constexpr std::string_view kScoreDetected = "detected";                // count
+inline constexpr std::string_view kScoreMissed = "missed";                    // count
+inline constexpr std::string_view kScoreFalseMarks = "false_marks";           // count
+inline constexpr std::string_view kScoreDetectionRate = "detection_rate";     // fraction
+inline constexpr std::string_view kScoreSeverityAccuracy = "severity_accuracy";  // fraction
+inline constexpr std::string_view kScoreTimeToDetection = "time_to_detection";  // s, per lesion, level = severity
+inline constexpr std::string_view kScoreCaseTime = "case_time";               // s
+inline constexpr std::string_view kScoreSoftTissueTime = "soft_tissue_time";  // s
+inline constexpr std::string_view kScoreSoftTissuePeak = "soft_tissue_peak_force";  // N
+inline constexpr std::string_view kScoreEnamelExcessTime = "enamel_excess_force_time";  // s
+inline constexpr std::string_view kScoreEnamelPeak = "enamel_peak_force";     // N
+inline constexpr std::string_view kScoreBlockedInsertions = "blocked_insertions";  // count
+
+}  // namespace cariesim::training
