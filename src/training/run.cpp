@@ -248,10 +248,17 @@ const TrialSetup& StudyRun::begin_trial() {
     insert.bind(6, utc_now_iso8601());
     if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
     row_ = sqlite3_last_insert_rowid(db.get());
-    const fs::path relative =
-        options_.recordings / fmt::format("{}-{}-{}.db", study_.name, options_.participant, row_);
+    // STUDY-PARTICIPANT-ROW.db, with -2, -3, ... when a file of that name is left from a database
+    // that was deleted (row ids then start over).
     const fs::path base = options_.database.parent_path();
-    recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+    fs::path relative;
+    for (int n = 1;; ++n) {
+      const std::string suffix = n == 1 ? "" : fmt::format("-{}", n);
+      relative = options_.recordings / fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
+      recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+      std::error_code ec;
+      if (!fs::exists(recording_path_, ec)) break;
+    }
     Statement update(db, "UPDATE trials SET recording = ? WHERE id = ?");
     update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
     update.bind(1, row_);
