@@ -139,7 +139,7 @@ std::string answers_json(const TrialSetup& setup, const TrialAnswers& a, const s
       w.key("marks").begin_array();
       for (std::size_t i = 0; i < a.marks.size(); ++i) {
         const Mark& m = a.marks[i];
-        w.begin_object().field("t", m.t).field("grade", grade_name(m.grade));
+        w.begin_object().field("t", m.t).field("grade", grade_name(m.grade)).field("contact", m.contact);
         w.key("tip").begin_array().value(m.tip.x()).value(m.tip.y()).value(m.tip.z()).end_array();
         if (i < judged.size()) {
           w.key("lesion");
@@ -315,11 +315,11 @@ void StudyRun::name_shape(int cube, const std::string& shape) {
   answers_.shapes[static_cast<std::size_t>(cube)] = shape;
 }
 
-void StudyRun::mark(const Vec3& tip, Grade grade, double t) {
+void StudyRun::mark(const Vec3& tip, Grade grade, double t, bool contact) {
   if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
   if (answers_.ended_at) throw Error("diagnosis: the case has ended; no more marks");
   if (!tip.allFinite() || !std::isfinite(t)) throw Error("diagnosis: a mark needs a finite tip position and time");
-  answers_.marks.push_back({tip, grade, t});
+  answers_.marks.push_back({tip, grade, t, contact});
 }
 
 void StudyRun::end_case(double t) {

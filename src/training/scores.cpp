@@ -157,9 +157,26 @@ void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAn
 
 }  // namespace
 
+std::vector<Mark> marks_from_buttons(const Recording& recording, int mild_button, int severe_button) {
+  // Rising edges of the two buttons, in sample order.
+  const auto bit = [](int button) { return button >= 0 && button < 32 ? (1u << button) : 0u; };
+  const uint32_t mild = bit(mild_button);
+  const uint32_t severe = bit(severe_button);
+  std::vector<Mark> marks;
+  uint32_t last = 0;
+  for (const ServoSample& s : recording.samples) {
+    const uint32_t pressed = s.buttons & ~last;
+    if ((pressed & mild) != 0) marks.push_back({s.graphic.p, Grade::Mild, s.t, s.contacts > 0});
+    if ((pressed & severe) != 0) marks.push_back({s.graphic.p, Grade::Severe, s.t, s.contacts > 0});
+    last = s.buttons;
+  }
+  return marks;
+}
+
 std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std::vector<ScoredLesion>& lesions,
                                        double margin) {
-  // Each mark goes to the nearest lesion volume within the margin; only a lesion's first mark counts.
+  // Each mark made in contact goes to the nearest lesion volume within the margin; only a lesion's
+  // first mark counts.
   std::vector<MarkJudgement> out;
   std::vector<bool> found(lesions.size(), false);
   for (const Mark& m : marks) {
@@ -173,7 +190,7 @@ std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std
         nearest = static_cast<int>(k);
       }
     }
-    if (nearest >= 0 && j.distance <= margin) {
+    if (nearest >= 0 && j.distance <= margin && m.contact) {
       j.lesion = nearest;
       j.first = !found[static_cast<std::size_t>(nearest)];
       found[static_cast<std::size_t>(nearest)] = true;

@@ -75,6 +75,16 @@ TEST(JudgeMarks, OnTheLesionIsADetectionThreeMillimetresAwayIsNot) {
   EXPECT_NEAR(j[3].distance, 0.6, 1e-9);
 }
 
+TEST(JudgeMarks, AMarkMadeInTheAirDetectsNothing) {
+  // 2 mm above the lesion's centre lies inside its volume (which reaches above the surface), but
+  // the tool touched nothing: a false mark.
+  const std::vector<ScoredLesion> lesions = {disk(0.0, Grade::Severe)};
+  const std::vector<MarkJudgement> j = judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, false}}, lesions, 0.5);
+  ASSERT_EQ(j.size(), 1u);
+  EXPECT_EQ(j[0].lesion, -1);
+  EXPECT_EQ(judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, true}}, lesions, 0.5)[0].lesion, 0);
+}
+
 TEST(JudgeMarks, AMarkGoesToTheNearestLesion) {
   const std::vector<ScoredLesion> lesions = {disk(0.0, Grade::Mild), disk(2.6, Grade::Severe)};
   // 1.35 mm from the first's centre (0.25 beyond its edge), 1.25 from the second's (0.15 beyond).
