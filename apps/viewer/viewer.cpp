@@ -18,6 +18,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/servo/device_factory.hpp"
+#include "cariesim/training/course.hpp"
 #include "screenshot.hpp"
 #include "viewer_app.hpp"
 
@@ -75,6 +76,24 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
   if (options_.device != "mouse") (void)make_device(options_.device);
   settings_.show_lesions = options_.show_lesions;
+
+  // Trainee mode: with a course, its instructor's passphrase opens the full panel; the lesions start
+  // hidden whatever was asked.
+  trainee_ = options_.trainee || !options_.course.empty();
+  if (!options_.course.empty()) {
+    course_ = training::load_course(options_.course);
+    if (!options_.station.empty()) {
+      if (!training::valid_identifier(options_.station))
+        throw Error("station '" + options_.station + "': not a valid name (letters, digits, '.', '_', '-')");
+      course_->station = options_.station;
+    }
+    if (!options_.participant.empty() && !course_->allows(options_.participant))
+      throw Error("participant '" + options_.participant + "': not a valid ID" +
+                  (course_->participants.empty() ? "" : " on the course's list (" + options_.course + ")"));
+    lock_ = InstructorLock(course_->instructor_hash);
+  }
+  if (trainee_) settings_.show_lesions = false;
+  if (!options_.script.empty()) script_ = load_script(options_.script);
   if (!options_.view.empty()) {
     CameraPreset preset;
     if (!parse_preset(options_.view, preset))
@@ -249,13 +268,51 @@ void ViewerApp::handle_input() {
     if (ImGui::IsKeyPressed(GLFW_KEY_R, false) && session_ && session_->run->recorder() == nullptr)
       restart_servo();
     if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
-    if (ImGui::IsKeyPressed(GLFW_KEY_L, false)) settings_.show_lesions = !settings_.show_lesions;
+    // A trainee has no reveal key.
+    if (ImGui::IsKeyPressed(GLFW_KEY_L, false) && !locked()) settings_.show_lesions = !settings_.show_lesions;
     // 1-4: the clinician's views on the explorer's tip; T: the camera follows the tip.
     constexpr CameraPreset kKeys[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
                                       CameraPreset::Operator};
     for (int k = 0; k < 4; ++k)
       if (ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)) apply_preset(kKeys[k]);
     if (ImGui::IsKeyPressed(GLFW_KEY_T, false)) follow_tip_ = !follow_tip_;
+  }
+}
+
+ViewSettings ViewerApp::shown_settings() const { return locked() ? trainee_settings(settings_) : settings_; }
+
+void ViewerApp::submit_passphrase(const std::string& passphrase) {
+  // Right: the full panel opens; wrong: refused, counted, and said so.
+  if (lock_.try_unlock(passphrase)) {
+    lock_message_.clear();
+    std::fprintf(stderr, "run: instructor unlocked the full panel\n");
+  } else {
+    lock_message_ = lock_.can_unlock()
+                        ? fmt::format("Wrong passphrase ({} refused).", lock_.refused())
+                        : std::string("This window has no instructor passphrase (no course file).");
+    std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+  }
+}
+
+void ViewerApp::run_script() {
+  // Before the frame starts: release the key pressed in the last frame, then every step whose time
+  // (servo time of the running session) has come, as the keyboard or the panel would do it.
+  ImGuiIO& io = ImGui::GetIO();
+  if (script_key_down_ >= 0) io.KeysDown[script_key_down_] = false;
+  script_key_down_ = -1;
+  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t) {
+    const ScriptStep& step = script_[script_next_];
+    if (step.action == "key") {
+      // One key a frame, so that each press is seen.
+      if (script_key_down_ >= 0) break;
+      script_key_down_ = script_key_code(step.argument);
+      io.KeysDown[script_key_down_] = true;
+    } else if (step.action == "passphrase") {
+      submit_passphrase(step.argument);
+    } else if (step.action == "lock") {
+      lock_.lock();
+    }
+    ++script_next_;
   }
 }
 
@@ -305,7 +362,7 @@ void ViewerApp::draw_scene(int width, int height) {
   renderer_->begin(frame);
   std::optional<Pose> recorded;
   if (session_->replay != nullptr) recorded = session_->replay->recorded_graphic(snapshot_.t);
-  session_->view->draw(*renderer_, snapshot_, settings_, recorded);
+  session_->view->draw(*renderer_, snapshot_, shown_settings(), recorded);
   glViewport(0, 0, width, height);
 }
 
@@ -315,6 +372,7 @@ int ViewerApp::run() {
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
+    run_script();
     poll_build();
 
     // One frame: input, the newest snapshot, the scene, the panel.
@@ -364,12 +422,18 @@ void ViewerApp::print_summary() const {
   // What the UI showed last, and the servo loop's timing (TimingReport).
   if (!session_) return;
   const StepOutput& out = snapshot_.out;
-  std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(), options_.device.c_str(),
-              session_->run->rate_hz());
-  std::printf(
-      "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
-      state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
-      out.contacts, snapshot_.t);
+  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view).
+  if (locked()) {
+    std::printf("run: trainee mode, device %s, %.0f Hz servo, t %.3f s\n", options_.device.c_str(),
+                session_->run->rate_hz(), snapshot_.t);
+  } else {
+    std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(),
+                options_.device.c_str(), session_->run->rate_hz());
+    std::printf(
+        "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
+        state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
+        out.contacts, snapshot_.t);
+  }
   std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),

@@ -22,6 +22,14 @@ struct ViewerOptions {
   /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);
   /// empty: the whole scene framed
   std::string view;
+  /// Trainee mode (docs/instructors.md): nothing on screen gives a lesion away (no lesion colour or
+  /// panel, no state or depth readout, no overlays, no reveal key); a course implies it
+  bool trainee = false;
+  std::string course;       ///< course file: trainee mode running the course's study; empty: none
+  std::string participant;  ///< participant ID for the course's study; empty: asked in the window
+  std::string station;      ///< overrides the course file's station name; empty: the course's
+  /// Window script for automation (docs/viewer.md): timed key presses and passphrases; empty: none
+  std::string script;
 };
 
 /// True when a window system is reachable (DISPLAY or WAYLAND_DISPLAY is set).

@@ -17,10 +17,12 @@
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
+#include "cariesim/training/course.hpp"
 #include "force_history.hpp"
 #include "gl_renderer.hpp"
 #include "mouse_device.hpp"
 #include "scene_view.hpp"
+#include "trainee.hpp"
 #include "viewer.hpp"
 
 struct GLFWwindow;
@@ -95,6 +97,11 @@ class ViewerApp {
   void panel_plots();
   void panel_view();
   void panel_lesion();
+  void panel_camera();
+  void panel_trainee();
+  void panel_instructor();
+  /// A collapsing section of the panel, open by default; its name is noted for the status file.
+  bool section(const char* name);
   void post(const ParamChange& change);
   void save_scene();
   [[nodiscard]] std::string status_json(int width, int height) const;
@@ -125,6 +132,26 @@ class ViewerApp {
   std::optional<CameraPreset> pending_preset_;
   bool follow_tip_ = false;
   void apply_preset(CameraPreset preset);
+
+  // Trainee mode (trainee.hpp): on or not, the course, the instructor's lock, the panel's
+  // passphrase field and the outcome of the last attempt.
+  bool trainee_ = false;
+  std::optional<training::Course> course_;
+  InstructorLock lock_;
+  std::string passphrase_input_;
+  std::string lock_message_;
+  /// True while the window shows a trainee what a trainee may see.
+  [[nodiscard]] bool locked() const { return trainee_ && !lock_.unlocked(); }
+  /// What the scene is drawn with: the panel's settings, or trainee_settings() of them when locked.
+  [[nodiscard]] ViewSettings shown_settings() const;
+  void submit_passphrase(const std::string& passphrase);
+  std::vector<std::string> sections_;  // the panel's sections drawn in the last frame
+
+  // The window script (--script): its steps, the next one, a key it pressed in the last frame.
+  std::vector<ScriptStep> script_;
+  std::size_t script_next_ = 0;
+  int script_key_down_ = -1;
+  void run_script();
 };
 
 /// px, width of the panel docked at the window's right edge.
