@@ -1,0 +1,169 @@
+#pragma once
+/// Running a study for one participant (docs/training.md): the trial sequence, the answers, and the
+/// study database (src/training/study_schema.hpp) with one row per trial. The motion of a trial is an
+/// ordinary session recording (servo/session.hpp with SessionOptions::record); the scores are computed
+/// from that recording and the answers when the trial ends.
+///
+///   RunOptions options;
+///   options.participant = "P01";
+///   options.database = "class.db";  // created with the schema, or appended to
+///   StudyRun run(load_study("boundary-shapes"), options);
+///   while (!run.finished()) {
+///     const TrialSetup& setup = run.begin_trial();   // the row is written, ended_at NULL
+///     ... build setup.scene(), run a Session recording to run.recording_path() ...
+///     run.name_shape(0, "circle"); run.name_shape(1, "square"); run.name_shape(2, "triangle");
+///     const TrialResult result = run.end_trial(run.recording_path());  // scores + row, one transaction
+///   }
+///
+/// Crash safety: begin_trial() commits a row whose ended_at is NULL before anything runs; end_trial()
+/// writes answers, scores and ended_at in one transaction. A run killed mid-trial leaves the earlier
+/// trials whole and that trial with ended_at NULL.
+///
+/// Threads: one owner thread calls every member (the viewer's UI thread, the command's main thread).
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cariesim/common/math.hpp"
+#include "cariesim/render/model.hpp"
+#include "cariesim/training/study.hpp"
+
+namespace cariesim::training {
+
+/// Who runs a study, where, and into which database.
+struct RunOptions {
+  std::string participant;          ///< required, e.g. "P01" (letters, digits, '-', '_', '.')
+  std::string station;              ///< this machine's name in trials.station; empty: the host name
+  std::filesystem::path database;   ///< the study database, created when missing
+  /// The study seed; unset: the study file's seed, else one drawn from std::random_device.
+  std::optional<uint64_t> seed;
+  std::optional<int> trials;        ///< overrides the study's trial count
+  /// Folder of the trials' recordings; relative paths are taken from the database's folder.
+  std::filesystem::path recordings = "recordings";
+};
+
+/// A diagnosis mark: the participant held the tip here and pressed the mark key or button.
+struct Mark {
+  Vec3 tip = Vec3::Zero();  ///< mm, world: the graphic tool's tip (tool-frame origin)
+  Grade grade = Grade::Mild;
+  double t = 0.0;           ///< s, servo time of the press (the recording's clock)
+};
+
+/// The participant's answers to one trial, as the run collected them (trials.answers as JSON).
+struct TrialAnswers {
+  /// Tuning: level -> parameter name -> confirmed value (in the parameter's unit), and the servo
+  /// time (s) of each confirmation.
+  std::map<std::string, std::map<std::string, double>> tuned;
+  std::map<std::string, double> confirmed_at;
+  /// Boundary: the shape named for each cube (empty when not named).
+  std::vector<std::string> shapes;
+  /// Diagnosis: the marks in the order made, and the servo time (s) the case was ended (unset: the
+  /// trial ended without it, e.g. at the time limit).
+  std::vector<Mark> marks;
+  std::optional<double> ended_at;
+};
+
+/// One score (a row of the study database's scores table).
+struct Score {
+  std::string name;   ///< kScore* of study_schema.hpp
+  std::string level;  ///< "mild"/"severe", a shape name, or ""
+  double value = 0.0; ///< in unit
+  std::string unit;   ///< "", "N/mm", "s", "N", "count", "fraction"
+};
+
+/// What ending a trial wrote.
+struct TrialResult {
+  int64_t row = 0;                    ///< trials.id
+  int index = 0;                      ///< 0-based trial number
+  uint64_t seed = 0;
+  std::filesystem::path recording;    ///< as stored: relative to the database's folder when inside it
+  TrialAnswers answers;
+  std::vector<Score> scores;
+  std::string answers_json;           ///< trials.answers
+  std::string scores_json;            ///< trials.scores
+};
+
+class StudyRun {
+ public:
+  /// Opens (or creates, with the schema) the study database and draws the study seed. Throws
+  /// cariesim::Error naming the file and the reason (not a study database, another schema version,
+  /// unwritable) or the bad option (empty or malformed participant, trial count < 1).
+  StudyRun(Study study, RunOptions options);
+  ~StudyRun();
+  StudyRun(const StudyRun&) = delete;
+  StudyRun& operator=(const StudyRun&) = delete;
+
+  [[nodiscard]] const Study& study() const { return study_; }
+  [[nodiscard]] const RunOptions& options() const { return options_; }
+  /// The study seed in use (recorded through every trial's seed).
+  [[nodiscard]] uint64_t seed() const { return seed_; }
+  /// Trials in this run.
+  [[nodiscard]] int trial_count() const { return trial_count_; }
+  /// 0-based index of the current trial (the one begun, or the next to begin); trial_count() when done.
+  [[nodiscard]] int current_trial() const { return current_; }
+  /// True when every trial has ended.
+  [[nodiscard]] bool finished() const { return current_ >= trial_count_; }
+  /// True between begin_trial() and end_trial().
+  [[nodiscard]] bool in_trial() const { return in_trial_; }
+
+  /// Makes the current trial (make_trial with its seed) and commits its row (ended_at NULL). Throws
+  /// cariesim::Error when finished, already in a trial, or the database cannot be written.
+  const TrialSetup& begin_trial();
+  /// The current trial's setup (valid after begin_trial()).
+  [[nodiscard]] const TrialSetup& setup() const { return setup_; }
+  /// Where the current trial's recording should go (absolute; its folder is created by
+  /// begin_trial()): RECORDINGS/STUDY-PARTICIPANT-ROW.db.
+  [[nodiscard]] const std::filesystem::path& recording_path() const { return recording_path_; }
+
+  /// Tuning: the level being tuned now (setup().levels in order), or nullopt when all are confirmed.
+  [[nodiscard]] std::optional<Grade> current_level() const;
+  /// Tuning: confirms the values of the current level (every setup().parameters name, each within
+  /// its slider range) at servo time t (s) and moves to the next level. Throws cariesim::Error
+  /// naming the parameter when a value is missing, unknown, not finite or out of range, or when no
+  /// level is left.
+  void confirm_tuning(const std::map<std::string, double>& values, double t);
+  /// Boundary: names the shape of cube `cube` (0-based, setup().cubes order); a later call replaces
+  /// it. Throws cariesim::Error for a cube out of range or a name not in setup().shape_choices.
+  void name_shape(int cube, const std::string& shape);
+  /// Diagnosis: a mark at the tip (mm, world) graded mild/severe at servo time t (s). Throws
+  /// cariesim::Error for a non-finite tip or time, or after end_case().
+  void mark(const Vec3& tip, Grade grade, double t);
+  /// Diagnosis: the participant ends the case at servo time t (s).
+  void end_case(double t);
+  /// The answers so far.
+  [[nodiscard]] const TrialAnswers& answers() const { return answers_; }
+
+  /// Ends the current trial: loads the recording (record/recorder.hpp load_recording; an empty
+  /// path: no recording, the motion scores are then absent), computes the scores (scores.hpp),
+  /// and writes answers, scores, the recording's path and ended_at in one transaction. A diagnosis
+  /// trial judges the marks against `model`'s lesions (the model built from setup().scene(), whose
+  /// lesions are snapped onto the teeth); without one the scene is built here (a tree-cache hit
+  /// after the trial ran). Throws cariesim::Error naming what failed (no trial begun, an
+  /// unreadable recording, incomplete answers: a tuning level not confirmed); the row then stays
+  /// with ended_at NULL and the trial stays current.
+  TrialResult end_trial(const std::filesystem::path& recording, const Model* model = nullptr);
+  /// Leaves the current trial unfinished (its row keeps ended_at NULL) and moves to the next.
+  void abandon_trial();
+
+ private:
+  struct Db;
+  Study study_;
+  RunOptions options_;
+  std::unique_ptr<Db> db_;
+  uint64_t seed_ = 0;
+  int trial_count_ = 0;
+  int current_ = 0;
+  bool in_trial_ = false;
+  int64_t row_ = 0;
+  TrialSetup setup_;
+  std::filesystem::path recording_path_;
+  TrialAnswers answers_;
+  std::size_t level_ = 0;  // next tuning level to confirm
+};
+
+}  // namespace cariesim::training
