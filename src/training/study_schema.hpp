@@ -11,6 +11,8 @@ namespace cariesim::training {
 inline constexpr int kStudySchemaVersion = 1;
 /// PRAGMA application_id of a study database ("CRST"), beside the recordings' "CRSM".
 inline constexpr int kStudyApplicationId = 0x43525354;
+/// schema_version.application of a study database (a recording's is "cariesim").
+inline constexpr std::string_view kStudyApplication = "cariesim-study";
 
 /// Tables of a study database, created in one script on a new file.
 ///   trials: one row per trial; `ended_at` stays NULL for a trial that did not finish (a crash or

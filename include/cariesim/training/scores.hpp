@@ -22,6 +22,7 @@ namespace cariesim::training {
 struct ScoredLesion {
   LesionShape shape;  ///< world, snapped onto the surface (Model::lesions[i].shape)
   Grade severity = Grade::Mild;
+  double f_p_star = 0.0;  ///< N, the insertion threshold of its material (blocked insertions)
 };
 
 /// How each diagnosis mark was judged.

@@ -113,8 +113,10 @@ struct CaseGenerator {
 struct DiagnosisDesc {
   std::string scene = "real-arch";  ///< built-in scene name or file; its own lesions are removed
   std::vector<LesionSite> sites;
-  std::vector<std::vector<CaseLesion>> cases;  ///< when not empty, trial i is case i % size
-  CaseGenerator generate;                      ///< otherwise cases are drawn from the seed
+  /// The case list: trial i is case i while i < cases.size(); after it, trials draw their case
+  /// from their seed when `generate` is set, else the list starts over (case i % size).
+  std::vector<std::vector<CaseLesion>> cases;
+  std::optional<CaseGenerator> generate;  ///< how cases beyond the list are drawn
   double time_limit = 180.0;                   ///< s per case (servo time); 0: none
   double detection_margin = 0.5;               ///< mm beyond the lesion's footprint a mark still counts
 };
@@ -135,7 +137,7 @@ struct Study {
   uint64_t source_hash = 0;  ///< hash of the YAML text
   StudyKind kind = StudyKind::Tuning;
   int trials = 1;                ///< trials per participant
-  std::optional<uint64_t> seed;  ///< the study seed; unset: drawn when a run starts (and recorded)
+  std::optional<uint64_t> seed;  ///< the study seed, < 2^63; unset: drawn when a run starts
   TuningDesc tuning;
   BoundaryDesc boundary;
   DiagnosisDesc diagnosis;
@@ -154,7 +156,7 @@ std::vector<std::string> builtin_study_names();
 std::string_view builtin_study_yaml(std::string_view name);
 
 /// The seed of trial `index` of a run whose study seed is `study_seed`: the (index+1)-th output of a
-/// std::mt19937_64 seeded with study_seed.
+/// std::mt19937_64 seeded with study_seed, shifted right by one (63 bits: it fits SQLite's INTEGER).
 uint64_t trial_seed(uint64_t study_seed, int index);
 
 /// What is hidden in a trial: the scorer's truth, never shown to a trainee.

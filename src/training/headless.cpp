@@ -1,0 +1,206 @@
+// A study without a window (docs/training.md, "headless"): answers files, and each trial run as a
+// recorded Session driven by a scripted device, then answered from the file and ended.
+
+#include "cariesim/training/headless.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <thread>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/record/recorder.hpp"
+#include "cariesim/servo/session.hpp"
+#include "scene/yaml_reader.hpp"
+#include "training/study_schema.hpp"
+
+namespace cariesim::training {
+
+using scene_detail::Fields;
+using scene_detail::indexed;
+using scene_detail::Reader;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMaxAnswerTime = 3600.0;   // s, latest time an answers file may name
+constexpr double kDefaultDuration = 1.0;    // s of a trial whose device does not end
+
+// A device spec with a relative FILE (scripted:FILE, replay:FILE) taken from the answers file's folder.
+std::string resolve_device(const std::string& spec, const fs::path& origin) {
+  for (const std::string_view prefix : {"scripted:", "replay:"}) {
+    if (!spec.starts_with(prefix)) continue;
+    const fs::path file(spec.substr(prefix.size()));
+    if (file.is_absolute() || origin.parent_path().empty()) return spec;
+    return std::string(prefix) + (origin.parent_path() / file).string();
+  }
+  return spec;
+}
+
+// One entry of `trials`.
+ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::string& path, const fs::path& origin) {
+  const Fields f(r, node, path, {"tuning", "shapes", "marks", "end", "device"});
+  ScriptedTrial t;
+  t.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
+  if (const auto n = f.get("tuning"); n.IsDefined()) {
+    const Fields levels(r, n, f.sub("tuning"), {"mild", "severe"});
+    for (const std::string_view level : {"mild", "severe"}) {
+      if (!levels.has(level)) continue;
+      const Fields values(r, levels.get(level), levels.sub(level), {kScoreMuS, kScoreMuD, kScoreKc, kScoreKe});
+      for (const std::string_view name : {kScoreMuS, kScoreMuD, kScoreKc, kScoreKe}) {
+        if (values.has(name))
+          t.tuning[std::string(level)][std::string(name)] = r.number(values.get(name), values.sub(name));
+      }
+    }
+  }
+  if (const auto n = f.get("shapes"); n.IsDefined()) {
+    r.require_sequence(n, f.sub("shapes"));
+    for (std::size_t i = 0; i < n.size(); ++i) t.shapes.push_back(r.text(n[i], indexed(f.sub("shapes"), i)));
+  }
+  if (const auto n = f.get("marks"); n.IsDefined()) {
+    r.require_sequence(n, f.sub("marks"));
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string mark_path = indexed(f.sub("marks"), i);
+      const Fields m(r, n[i], mark_path, {"t", "at", "grade"});
+      ScriptedMark mark;
+      mark.t = r.number_in(m.require("t"), m.sub("t"), 0.0, kMaxAnswerTime, "s");
+      if (const auto at = m.get("at"); at.IsDefined()) mark.at = r.vec3(at, m.sub("at"));
+      mark.grade = r.choice(m.require("grade"), m.sub("grade"), "grade", {"mild", "severe"}) == 0 ? Grade::Mild
+                                                                                                 : Grade::Severe;
+      t.marks.push_back(mark);
+    }
+  }
+  if (const auto n = f.get("end"); n.IsDefined()) t.end = r.number_in(n, f.sub("end"), 0.0, kMaxAnswerTime, "s");
+  if (const auto n = f.get("device"); n.IsDefined()) {
+    t.device = r.text(n, f.sub("device"));
+    if (t.device.empty()) r.fail(n, f.sub("device"), "empty device spec");
+    t.device = resolve_device(t.device, origin);
+  }
+  return t;
+}
+
+// The recorded graphic tip (mm, world) at the sample nearest to time t (s).
+Vec3 recorded_tip(const Recording& rec, double t, const SourceLoc& where) {
+  if (rec.samples.empty()) throw Error(fmt::format("{}: a mark at t = {} s, but the trial recorded no motion", where.str(), t));
+  const ServoSample* best = &rec.samples.front();
+  for (const ServoSample& s : rec.samples)
+    if (std::abs(s.t - t) < std::abs(best->t - t)) best = &s;
+  return best->graphic.p;
+}
+
+// Runs the session until the device's path ends, the servo clock reaches `limit` (s), or forever for
+// limit = infinity with a device that ends.
+void drive(Session& session, bool ends, double limit) {
+  session.start();
+  bool seen_valid = false;
+  ServoSnapshot snapshot;
+  for (;;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (!session.latest(snapshot)) continue;
+    if (snapshot.t >= limit) break;
+    if (ends && seen_valid && !snapshot.device.valid) break;
+    seen_valid = seen_valid || snapshot.device.valid;
+  }
+  session.stop();
+}
+
+}  // namespace
+
+ScriptedAnswers parse_answers(std::string_view yaml, const fs::path& origin) {
+  const Reader r(origin.string());
+  YAML::Node root;
+  try {
+    root = YAML::Load(std::string(yaml));
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: {}", r.where(e.mark), e.msg));
+  }
+  if (!root.IsDefined() || root.IsNull()) throw Error(fmt::format("{}: empty answers file", origin.string()));
+  const Fields f(r, root, "", {"format", "trials"});
+  if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, f.sub("format"), 1, 1);
+  ScriptedAnswers answers;
+  answers.origin = origin.string();
+  const YAML::Node trials = f.require("trials");
+  r.require_sequence(trials, f.sub("trials"));
+  if (trials.size() == 0) r.fail(trials, f.sub("trials"), "expected at least one trial");
+  for (std::size_t i = 0; i < trials.size(); ++i)
+    answers.trials.push_back(read_trial(r, trials[i], indexed(f.sub("trials"), i), origin));
+  return answers;
+}
+
+ScriptedAnswers load_answers(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the answers file", file.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_answers(text.str(), file);
+}
+
+std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers, const HeadlessOptions& options) {
+  std::vector<TrialResult> results;
+  while (!run.finished()) {
+    const TrialSetup& setup = run.begin_trial();
+    const std::size_t entry_index = std::min<std::size_t>(static_cast<std::size_t>(setup.index), answers.trials.size() - 1);
+    const ScriptedTrial& entry = answers.trials[entry_index];
+    const std::string context = fmt::format("trial {} ({})", setup.index + 1, entry.where.str());
+    try {
+      // The scene, and the session that drives and records it.
+      const Model model = build_model(setup.scene(), options.build);
+      SessionOptions session_options;
+      session_options.scene = setup.scene_origin;
+      session_options.device = entry.device.empty() ? options.device : entry.device;
+      session_options.realtime = options.realtime;
+      session_options.record = run.recording_path().string();
+      if (run.study().scoring.soft_tissue_threshold)
+        session_options.recorder.soft_tissue_threshold = *run.study().scoring.soft_tissue_threshold;
+      Session session(model, session_options);
+      const std::string& device = session.device_info().name;
+      const bool ends = (device == "scripted" || device == "replay") && !session_options.device.ends_with(":loop");
+      double limit = std::numeric_limits<double>::infinity();
+      if (setup.time_limit > 0.0) limit = setup.time_limit;
+      if (entry.end) limit = std::min(limit, *entry.end);
+      if (!ends) limit = std::min(limit, options.duration > 0.0 ? options.duration : kDefaultDuration);
+      drive(session, ends, limit);
+      if (const Recorder* recorder = session.recorder(); recorder != nullptr && !recorder->status().ok)
+        throw Error(recorder->status().message);
+
+      // The answers, at the recorded times.
+      const Recording rec = load_recording(run.recording_path());
+      const double last_t = rec.samples.empty() ? 0.0 : rec.samples.back().t;
+      switch (setup.kind) {
+        case StudyKind::Tuning:
+          for (const Grade g : setup.levels) {
+            const auto level = entry.tuning.find(std::string(grade_name(g)));
+            if (level == entry.tuning.end())
+              throw Error(fmt::format("no tuning values for the {} level", grade_name(g)));
+            run.confirm_tuning(level->second, last_t);
+          }
+          break;
+        case StudyKind::Boundary:
+          if (entry.shapes.size() != setup.cubes.size())
+            throw Error(fmt::format("{} shapes named for {} cubes", entry.shapes.size(), setup.cubes.size()));
+          for (std::size_t i = 0; i < entry.shapes.size(); ++i) run.name_shape(static_cast<int>(i), entry.shapes[i]);
+          break;
+        case StudyKind::Diagnosis:
+          for (const ScriptedMark& m : entry.marks) {
+            // A mark after the case's time ran out, or after its end, is not made.
+            if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end)) continue;
+            run.mark(m.at ? *m.at : recorded_tip(rec, m.t, entry.where), m.grade, m.t);
+          }
+          if (entry.end) run.end_case(*entry.end);
+          break;
+      }
+      results.push_back(run.end_trial(run.recording_path(), &model));
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", context, e.what()));
+    }
+    if (options.on_trial) options.on_trial(results.back());
+  }
+  return results;
+}
+
+}  // namespace cariesim::training

@@ -1,0 +1,402 @@
+// StudyRun (docs/training.md): the trial sequence of one participant, the answers, and the study
+// database (study_schema.hpp). A trial's row is committed when it begins (ended_at NULL) and
+// completed with its answers and scores in one transaction when it ends.
+
+#include "cariesim/training/run.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <random>
+
+#include "cariesim/common/clock.hpp"
+#include "cariesim/common/error.hpp"
+#include "cariesim/experiment/json.hpp"
+#include "cariesim/record/recorder.hpp"
+#include "cariesim/scene/scene.hpp"
+#include "cariesim/training/scores.hpp"
+#include "record/sqlite.hpp"
+#include "training/study_schema.hpp"
+
+namespace cariesim::training {
+
+namespace fs = std::filesystem;
+using record::Database;
+using record::Statement;
+
+struct StudyRun::Db {
+  explicit Db(const fs::path& file) : db(file, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE) {}
+  Database db;
+};
+
+namespace {
+
+constexpr std::size_t kMaxParticipantLength = 64;
+
+// A participant id: letters, digits, '-', '_', '.'; not empty, at most 64 characters.
+void check_participant(const std::string& id) {
+  if (id.empty()) throw Error("participant: required (e.g. --participant P01)");
+  if (id.size() > kMaxParticipantLength)
+    throw Error(fmt::format("participant '{}': longer than {} characters", id, kMaxParticipantLength));
+  for (const char c : id) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.';
+    if (!ok) throw Error(fmt::format("participant '{}': only letters, digits, '-', '_' and '.' are allowed", id));
+  }
+}
+
+// This machine's name.
+std::string host_name() {
+  char name[256] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0 || name[0] == '\0') return "station";
+  return name;
+}
+
+// A study database: a new file gets the schema; an existing one must be a study database of our version.
+void open_study_database(Database& db) {
+  const fs::path file(db.file());
+  db.exec("PRAGMA busy_timeout=5000", "cannot set the busy timeout");
+  int64_t application = 0;
+  {
+    Statement id(db, "PRAGMA application_id");
+    if (id.step() == SQLITE_ROW) application = id.integer(0);
+  }
+  bool empty = true;
+  {
+    Statement tables(db, "SELECT count(*) FROM sqlite_master");
+    if (tables.step() == SQLITE_ROW) empty = tables.integer(0) == 0;
+  }
+  if (empty && application == 0) {
+    // A new database: WAL (a crash loses nothing committed), the id, the schema, the version row.
+    {
+      Statement mode(db, "PRAGMA journal_mode=WAL");
+      if (mode.step() != SQLITE_ROW || mode.text(0) != "wal")
+        db.fail("cannot switch to WAL mode (the file system may not support it)");
+    }
+    db.exec("BEGIN IMMEDIATE", "cannot begin creating the study database");
+    db.exec("PRAGMA application_id=" + std::to_string(kStudyApplicationId), "cannot set the application id");
+    db.exec(std::string(kStudySchemaSql), "cannot create the study tables");
+    Statement version(db, "INSERT INTO schema_version (version, application) VALUES (?, ?)");
+    version.bind(0, int64_t{kStudySchemaVersion});
+    version.bind(1, std::string(kStudyApplication));
+    if (version.step() != SQLITE_DONE) db.fail("cannot write the schema version");
+    db.exec("COMMIT", "cannot commit the study tables");
+    return;
+  }
+  if (application != kStudyApplicationId)
+    throw Error(fmt::format("{}: not a cariesim study database (application id 0x{:08x})", file.string(),
+                            static_cast<uint32_t>(application)));
+  Statement version(db, "SELECT version, application FROM schema_version");
+  if (version.step() != SQLITE_ROW || version.text(1) != kStudyApplication)
+    throw Error(fmt::format("{}: not a cariesim study database (no schema_version row)", file.string()));
+  if (version.integer(0) != kStudySchemaVersion)
+    throw Error(fmt::format("{}: study database schema version {} is not supported (this cariesim writes {})",
+                            file.string(), version.integer(0), kStudySchemaVersion));
+  db.exec("PRAGMA journal_mode=WAL", "cannot switch to WAL mode");
+}
+
+// The answers of a trial as trials.answers (docs/training.md, "the study database").
+std::string answers_json(const TrialSetup& setup, const TrialAnswers& a, const std::vector<MarkJudgement>& judged) {
+  JsonWriter w;
+  w.begin_object();
+  switch (setup.kind) {
+    case StudyKind::Tuning:
+      w.key("levels").begin_array();
+      for (const Grade g : setup.levels) w.value(grade_name(g));
+      w.end_array();
+      w.key("start").begin_object();
+      for (const TunedParameter& p : setup.parameters) w.field(p.name, p.start);
+      w.end_object();
+      w.key("tuned").begin_object();
+      for (const auto& [level, values] : a.tuned) {
+        w.key(level).begin_object();
+        for (const auto& [name, value] : values) w.field(name, value);
+        w.end_object();
+      }
+      w.end_object();
+      w.key("confirmed_at").begin_object();
+      for (const auto& [level, t] : a.confirmed_at) w.field(level, t);
+      w.end_object();
+      break;
+    case StudyKind::Boundary:
+      w.key("cubes").begin_array();
+      for (const std::string& c : setup.cubes) w.value(c);
+      w.end_array();
+      w.key("named").begin_array();
+      for (const std::string& s : a.shapes) s.empty() ? w.null() : w.value(s);
+      w.end_array();
+      w.key("hidden").begin_array();
+      for (const std::string& s : setup.truth.shapes) w.value(s);
+      w.end_array();
+      break;
+    case StudyKind::Diagnosis:
+      w.key("lesions").begin_array();
+      for (const CaseLesion& l : setup.truth.lesions) {
+        w.begin_object().field("site", l.site).field("severity", grade_name(l.severity));
+        w.field("size", l.size).field("width", l.width).field("depth", l.depth).end_object();
+      }
+      w.end_array();
+      w.key("marks").begin_array();
+      for (std::size_t i = 0; i < a.marks.size(); ++i) {
+        const Mark& m = a.marks[i];
+        w.begin_object().field("t", m.t).field("grade", grade_name(m.grade));
+        w.key("tip").begin_array().value(m.tip.x()).value(m.tip.y()).value(m.tip.z()).end_array();
+        if (i < judged.size()) {
+          w.key("lesion");
+          judged[i].lesion >= 0 ? w.value(judged[i].lesion + 1) : w.null();
+          w.field("distance", judged[i].distance).field("first", judged[i].first);
+        }
+        w.end_object();
+      }
+      w.end_array();
+      w.key("ended_at");
+      a.ended_at ? w.value(*a.ended_at) : w.null();
+      break;
+  }
+  w.end_object();
+  return w.str();
+}
+
+// The scores as trials.scores: name -> value (level ""), or name -> {level -> value}; a (name, level)
+// that occurs more than once (time_to_detection of two lesions of one severity) maps to an array.
+std::string scores_json(const std::vector<Score>& scores) {
+  // Group by name, then level, keeping the order of first appearance.
+  std::vector<std::pair<std::string, std::vector<std::pair<std::string, std::vector<double>>>>> groups;
+  for (const Score& s : scores) {
+    auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& x) { return x.first == s.name; });
+    if (g == groups.end()) g = groups.insert(groups.end(), {s.name, {}});
+    auto l = std::find_if(g->second.begin(), g->second.end(), [&](const auto& x) { return x.first == s.level; });
+    if (l == g->second.end()) l = g->second.insert(g->second.end(), {s.level, {}});
+    l->second.push_back(s.value);
+  }
+  JsonWriter w;
+  const auto values = [&](const std::vector<double>& v) {
+    if (v.size() == 1) {
+      w.value(v.front());
+      return;
+    }
+    w.begin_array();
+    for (const double x : v) w.value(x);
+    w.end_array();
+  };
+  w.begin_object();
+  for (const auto& [name, levels] : groups) {
+    w.key(name);
+    if (levels.size() == 1 && levels.front().first.empty()) {
+      values(levels.front().second);
+      continue;
+    }
+    w.begin_object();
+    for (const auto& [level, v] : levels) {
+      w.key(level);
+      values(v);
+    }
+    w.end_object();
+  }
+  w.end_object();
+  return w.str();
+}
+
+}  // namespace
+
+StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), options_(std::move(options)) {
+  // The options, then the database, then the seed.
+  check_participant(options_.participant);
+  if (options_.station.empty()) options_.station = host_name();
+  if (options_.database.empty()) throw Error("study database: required (e.g. --out class.db)");
+  trial_count_ = options_.trials.value_or(study_.trials);
+  if (trial_count_ < 1) throw Error(fmt::format("trials: {} is not a trial count (at least 1)", trial_count_));
+  std::error_code ec;
+  if (const fs::path dir = options_.database.parent_path(); !dir.empty() && !fs::is_directory(dir, ec))
+    throw Error(fmt::format("{}: the folder {} does not exist", options_.database.string(), dir.string()));
+  db_ = std::make_unique<Db>(options_.database);
+  open_study_database(db_->db);
+  if (options_.seed) {
+    seed_ = *options_.seed;
+  } else if (study_.seed) {
+    seed_ = *study_.seed;
+  } else {
+    std::random_device device;
+    seed_ = ((static_cast<uint64_t>(device()) << 32) ^ device()) >> 1;
+  }
+}
+
+StudyRun::~StudyRun() = default;
+
+const TrialSetup& StudyRun::begin_trial() {
+  if (finished()) throw Error(fmt::format("study {}: all {} trials have ended", study_.name, trial_count_));
+  if (in_trial_) throw Error(fmt::format("study {}: trial {} has begun already", study_.name, current_ + 1));
+  setup_ = make_trial(study_, current_, trial_seed(seed_, current_));
+  answers_ = TrialAnswers{};
+  answers_.shapes.assign(setup_.cubes.size(), std::string());
+  level_ = 0;
+
+  // The row (ended_at NULL) and its recording's path, in one transaction.
+  Database& db = db_->db;
+  db.exec("BEGIN IMMEDIATE", "cannot begin a trial");
+  try {
+    Statement insert(db,
+                     "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
+                     " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, NULL, NULL, '{}', '{}')");
+    insert.bind(0, options_.station);
+    insert.bind(1, options_.participant);
+    insert.bind(2, study_.name);
+    insert.bind(3, std::string(study_kind_name(study_.kind)));
+    insert.bind(4, int64_t{current_ + 1});
+    insert.bind(5, static_cast<int64_t>(setup_.seed));
+    insert.bind(6, utc_now_iso8601());
+    if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
+    row_ = sqlite3_last_insert_rowid(db.get());
+    const fs::path relative =
+        options_.recordings / fmt::format("{}-{}-{}.db", study_.name, options_.participant, row_);
+    const fs::path base = options_.database.parent_path();
+    recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+    Statement update(db, "UPDATE trials SET recording = ? WHERE id = ?");
+    update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
+    update.bind(1, row_);
+    if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's recording path");
+    db.exec("COMMIT", "cannot commit the trial row");
+  } catch (...) {
+    db.try_exec("ROLLBACK");
+    throw;
+  }
+  std::error_code ec;
+  fs::create_directories(recording_path_.parent_path(), ec);
+  if (ec)
+    throw Error(fmt::format("{}: cannot create the recordings folder: {}", recording_path_.parent_path().string(),
+                            ec.message()));
+  in_trial_ = true;
+  return setup_;
+}
+
+std::optional<Grade> StudyRun::current_level() const {
+  if (!in_trial_ || setup_.kind != StudyKind::Tuning || level_ >= setup_.levels.size()) return std::nullopt;
+  return setup_.levels[level_];
+}
+
+void StudyRun::confirm_tuning(const std::map<std::string, double>& values, double t) {
+  const std::optional<Grade> level = current_level();
+  if (!level) throw Error(in_trial_ && setup_.kind == StudyKind::Tuning ? "tuning: every level is confirmed"
+                                                                        : "tuning: no tuning trial in progress");
+  // Every slider once, finite and within its range; nothing else.
+  for (const auto& [name, value] : values) {
+    const auto p = std::find_if(setup_.parameters.begin(), setup_.parameters.end(),
+                                [&](const TunedParameter& q) { return q.name == name; });
+    if (p == setup_.parameters.end()) throw Error(fmt::format("tuning: '{}' is not tuned in this study", name));
+    if (!std::isfinite(value) || value < p->min || value > p->max)
+      throw Error(fmt::format("tuning: {} = {} is outside its slider [{}, {}]", name, value, p->min, p->max));
+  }
+  for (const TunedParameter& p : setup_.parameters)
+    if (!values.contains(p.name)) throw Error(fmt::format("tuning: no value for {} ({})", p.name, grade_name(*level)));
+  if (!std::isfinite(t)) throw Error("tuning: the confirmation time is not finite");
+  const std::string key(grade_name(*level));
+  answers_.tuned[key] = values;
+  answers_.confirmed_at[key] = t;
+  ++level_;
+}
+
+void StudyRun::name_shape(int cube, const std::string& shape) {
+  if (!in_trial_ || setup_.kind != StudyKind::Boundary) throw Error("boundary: no boundary trial in progress");
+  if (cube < 0 || cube >= static_cast<int>(setup_.cubes.size()))
+    throw Error(fmt::format("boundary: cube {} does not exist (0 to {})", cube, setup_.cubes.size() - 1));
+  if (std::find(setup_.shape_choices.begin(), setup_.shape_choices.end(), shape) == setup_.shape_choices.end()) {
+    std::string names;
+    for (const auto& s : setup_.shape_choices) names += (names.empty() ? "" : ", ") + s;
+    throw Error(fmt::format("boundary: '{}' is not one of the shapes ({})", shape, names));
+  }
+  answers_.shapes[static_cast<std::size_t>(cube)] = shape;
+}
+
+void StudyRun::mark(const Vec3& tip, Grade grade, double t) {
+  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
+  if (answers_.ended_at) throw Error("diagnosis: the case has ended; no more marks");
+  if (!tip.allFinite() || !std::isfinite(t)) throw Error("diagnosis: a mark needs a finite tip position and time");
+  answers_.marks.push_back({tip, grade, t});
+}
+
+void StudyRun::end_case(double t) {
+  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
+  if (!std::isfinite(t)) throw Error("diagnosis: the end time is not finite");
+  if (!answers_.ended_at) answers_.ended_at = t;
+}
+
+TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
+  if (!in_trial_) throw Error(fmt::format("study {}: no trial has begun", study_.name));
+  // The recording (optional), the lesions (diagnosis), then the scores.
+  std::optional<Recording> rec;
+  if (!recording.empty()) rec = load_recording(recording);
+  std::vector<ScoredLesion> lesions;
+  if (setup_.kind == StudyKind::Diagnosis) {
+    std::optional<Model> built;
+    if (model == nullptr) {
+      built = build_model(setup_.scene());
+      model = &*built;
+    }
+    if (model->lesions.size() != setup_.truth.lesions.size())
+      throw Error(fmt::format("study {}: the model has {} lesions, the trial {}", study_.name, model->lesions.size(),
+                              setup_.truth.lesions.size()));
+    for (std::size_t k = 0; k < model->lesions.size(); ++k) {
+      const LesionModel& l = model->lesions[k];
+      lesions.push_back({l.shape, setup_.truth.lesions[k].severity, model->defaults.materials[l.material].f_p_star});
+    }
+  }
+  TrialResult result;
+  result.row = row_;
+  result.index = current_;
+  result.seed = setup_.seed;
+  result.answers = answers_;
+  result.scores = compute_scores(study_, setup_, answers_, rec ? &*rec : nullptr, lesions);
+  std::vector<MarkJudgement> judged;
+  if (setup_.kind == StudyKind::Diagnosis)
+    judged = judge_marks(answers_.marks, lesions, study_.diagnosis.detection_margin);
+  result.answers_json = answers_json(setup_, answers_, judged);
+  result.scores_json = scores_json(result.scores);
+
+  // The recording's path relative to the database's folder when it lies inside it.
+  std::string stored;
+  if (!recording.empty()) {
+    const fs::path base = fs::absolute(options_.database).parent_path().lexically_normal();
+    const fs::path rel = fs::absolute(recording).lexically_normal().lexically_relative(base);
+    stored = (!rel.empty() && !rel.string().starts_with("..")) ? rel.string() : fs::absolute(recording).string();
+    result.recording = stored;
+  }
+
+  // Answers, scores, recording and ended_at in one transaction.
+  Database& db = db_->db;
+  db.exec("BEGIN IMMEDIATE", "cannot begin ending the trial");
+  try {
+    Statement update(db,
+                     "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
+    update.bind(0, utc_now_iso8601());
+    update.bind(1, stored);
+    update.bind(2, result.answers_json);
+    update.bind(3, result.scores_json);
+    update.bind(4, row_);
+    if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
+    Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
+    for (const Score& s : result.scores) {
+      insert.reset();
+      insert.bind(0, row_);
+      insert.bind(1, s.name);
+      insert.bind(2, s.level);
+      insert.bind(3, s.value);
+      insert.bind(4, s.unit);
+      if (insert.step() != SQLITE_DONE) db.fail(fmt::format("cannot write the score {}", s.name));
+    }
+    db.exec("COMMIT", "cannot commit the trial's scores");
+  } catch (...) {
+    db.try_exec("ROLLBACK");
+    throw;
+  }
+  in_trial_ = false;
+  ++current_;
+  return result;
+}
+
+void StudyRun::abandon_trial() {
+  if (!in_trial_) throw Error(fmt::format("study {}: no trial has begun", study_.name));
+  in_trial_ = false;
+  ++current_;
+}
+
+}  // namespace cariesim::training
