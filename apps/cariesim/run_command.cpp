@@ -2,7 +2,9 @@
 // scene with a device, the servo loop on its own thread, optionally a session record; for automation
 // a screenshot after some seconds of servo time. docs/viewer.md describes the window.
 #include <cstdio>
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,7 +33,9 @@ struct RunArgs {
   std::string view;                  // camera preset; empty: the whole scene framed
   std::vector<int> size{1280, 800};  // px, the window's width and height
   bool trainee = false;
-  std::string course, participant, station, script;
+  std::string course, participant, station, script, answers;
+  int trials = 0;  // 0: the study's count
+  std::optional<uint64_t> seed;
 };
 
 int run_simulator(const RunArgs& args) {
@@ -59,6 +63,9 @@ int run_simulator(const RunArgs& args) {
   options.participant = args.participant;
   options.station = args.station;
   options.script = args.script;
+  options.answers = args.answers;
+  if (args.trials > 0) options.trials = args.trials;
+  options.seed = args.seed;
   return viewer::run_viewer(options);
 #else
   (void)args;
@@ -97,9 +104,18 @@ void register_run(CLI::App& app, Registry& registry) {
   sub->add_option("--participant", args->participant, "Participant ID for the course's study (else asked)")
       ->needs(course);
   sub->add_option("--station", args->station, "This station's name (overrides the course file's)")->needs(course);
+  sub->add_option("--answers", args->answers,
+                  "Answers file that plays the participant (the format of `cariesim study run --answers`)")
+      ->needs(course);
+  sub->add_option("--trials", args->trials, "Override the course study's trial count")
+      ->check(CLI::Range(1, 1000))
+      ->needs(course);
+  sub->add_option("--seed", args->seed, "The course study's seed (default: the study file's, else drawn)")
+      ->needs(course);
   sub->add_option("--script", args->script,
                   "Window script for automation: timed key presses and passphrases (docs/viewer.md)");
   show->excludes(trainee)->excludes(course);
+  course->excludes(record);  // a course's trials record themselves
   sub->add_option("--size", args->size, "Window width and height in pixels (the window can be resized)")
       ->expected(2)
       ->check(CLI::Range(320, 8192))

@@ -71,13 +71,16 @@ void ViewerApp::draw_panel() {
   ImGui::PushItemWidth(-150.0f);
   sections_.clear();
   if (locked()) {
-    // A trainee: the course and the camera; the instructor's passphrase field.
+    // A trainee: the course and its study, the camera; the instructor's passphrase field.
     panel_trainee();
+    if (course_ && section("Study")) panel_study();
     if (session_ && section("View")) panel_camera();
     panel_instructor();
   } else {
     if (trainee_) panel_trainee();
-    panel_scene();
+    if (course_ && section("Study")) panel_study();
+    // A course's scenes are its study's: no scene picker.
+    if (!course_) panel_scene();
     if (session_) {
       panel_status();
       panel_plots();
@@ -118,7 +121,9 @@ void ViewerApp::draw_build_progress() {
     ImGui::Text("Preparing the scene");
   else
     ImGui::Text("Building %s", build_->source.c_str());
-  ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f), stage.c_str());
+  // A trainee sees no stage names (they name the lesion parts).
+  ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f),
+                     locked() ? nullptr : stage.c_str());
   if (session_) ImGui::TextDisabled("The current scene keeps running until the new one is ready.");
   ImGui::End();
 }
@@ -431,6 +436,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.key("panel_sections").begin_array();
   for (const std::string& name : sections_) json.value(name);
   json.end_array();
+  study_json(json);
   if (trainee_) {
     json.key("instructor").begin_object();
     json.field("can_unlock", lock_.can_unlock());

@@ -91,6 +91,13 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
       throw Error("participant '" + options_.participant + "': not a valid ID" +
                   (course_->participants.empty() ? "" : " on the course's list (" + options_.course + ")"));
     lock_ = InstructorLock(course_->instructor_hash);
+    // The study, and the answers file that may play the participant, checked before the window opens.
+    try {
+      study_ = training::load_study(course_->study);
+    } catch (const Error& e) {
+      throw Error(options_.course + ": study '" + course_->study + "': " + e.what());
+    }
+    if (!options_.answers.empty()) answers_ = training::load_answers(options_.answers);
   }
   if (trainee_) settings_.show_lesions = false;
   if (!options_.script.empty()) script_ = load_script(options_.script);
@@ -146,13 +153,18 @@ void ViewerApp::open_window() {
 }
 
 void ViewerApp::request_build(const std::string& source) {
+  request_build(source, [source] { return load_scene(source); }, false);
+}
+
+void ViewerApp::request_build(const std::string& label, std::function<SceneDesc()> load, bool trial) {
   // Parse and build on a worker thread; progress goes to the panel.
   build_error_.clear();
   build_ = std::make_unique<PendingBuild>();
-  build_->source = source;
+  build_->source = label;
+  build_->trial = trial;
   PendingBuild* pending = build_.get();
-  pending->result = std::async(std::launch::async, [pending, source] {
-    const SceneDesc desc = load_scene(source);
+  pending->result = std::async(std::launch::async, [pending, load = std::move(load)] {
+    const SceneDesc desc = load();
     BuildOptions build;
     build.progress = [pending](std::string_view stage, double fraction) {
       const std::lock_guard lock(pending->mutex);
@@ -161,7 +173,7 @@ void ViewerApp::request_build(const std::string& source) {
     };
     return std::make_unique<Model>(build_model(desc, build));
   });
-  std::fprintf(stderr, "run: building %s\n", source.c_str());
+  std::fprintf(stderr, "run: building %s\n", label.c_str());
 }
 
 void ViewerApp::poll_build() {
@@ -172,14 +184,24 @@ void ViewerApp::poll_build() {
     std::unique_ptr<Model> model = done->result.get();
     std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
                  model->objects.size());
-    start_session(std::move(model), done->source);
+    start_session(std::move(model), done->source, done->trial);
   } catch (const Error& e) {
+    // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
+    // ended_at NULL); otherwise the first scene's failure is fatal.
+    if (done->trial && run_) {
+      study_message_ = std::string("This trial could not start: ") + e.what();
+      study_message_is_error_ = true;
+      std::fprintf(stderr, "run: trial %d could not start: %s\n", run_->current_trial() + 1, e.what());
+      run_->abandon_trial();
+      if (!run_->finished()) begin_trial();
+      return;
+    }
     if (!session_) throw;
     build_error_ = e.what();
   }
 }
 
-void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source) {
+void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source, bool trial) {
   // The old loop stops first; its view holds GL objects, freed here on the render thread.
   const bool same_scene = session_ && session_->source == source;
   if (session_) session_->stop();
@@ -195,7 +217,15 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   session_options.device = options_.device;
   session_options.rate_hz = options_.rate_hz;
   session_options.realtime = options_.realtime;
-  if (!options_.record.empty() && !record_used_) {
+  if (trial && run_) {
+    // A study trial records itself where the run says; an answers entry may give its own device.
+    session_options.record = run_->recording_path().string();
+    if (answers_ && !answers_->trials.empty()) {
+      const auto& entries = answers_->trials;
+      const auto& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
+      if (!entry.device.empty()) session_options.device = entry.device;
+    }
+  } else if (!options_.record.empty() && !record_used_) {
     session_options.record = options_.record;
     session_options.recorder.overwrite = options_.overwrite;
     record_used_ = true;
@@ -203,7 +233,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     panel_.message = "The record ended with the previous scene (" + options_.record + ").";
     panel_.message_is_error = false;
   }
-  if (options_.device == "mouse")
+  if (session_options.device == "mouse")
     s->run = std::make_unique<Session>(
         *s->model, std::make_unique<MouseDevice>(s->model->tool_home, s->model->defaults.limits),
         session_options);
@@ -227,6 +257,18 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   history_.clear();
   timing_ = TimingReport{};
   timing_refreshed_ = std::chrono::steady_clock::now();
+  // A trial's panel starts over: sliders at their drawn start (sent to the servo thread), no shape
+  // named, the device's buttons as they are.
+  if (trial && run_) {
+    previous_buttons_ = 0;
+    device_seen_valid_ = false;
+    answer_mark_next_ = 0;
+    shape_choice_.assign(run_->setup().cubes.size(), -1);
+    tuned_lesion_ = -1;
+    for (std::size_t i = 0; i < session_->model->lesions.size(); ++i)
+      if (session_->model->lesions[i].name == run_->setup().tuned_lesion) tuned_lesion_ = static_cast<int>(i);
+    reset_tuning_sliders();
+  }
 }
 
 void ViewerApp::restart_servo() {
@@ -276,6 +318,8 @@ void ViewerApp::handle_input() {
     for (int k = 0; k < 4; ++k)
       if (ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)) apply_preset(kKeys[k]);
     if (ImGui::IsKeyPressed(GLFW_KEY_T, false)) follow_tip_ = !follow_tip_;
+    // M: a diagnosis mark at the tip.
+    if (ImGui::IsKeyPressed(GLFW_KEY_M, false)) study_mark();
   }
 }
 
@@ -368,7 +412,11 @@ void ViewerApp::draw_scene(int width, int height) {
 
 int ViewerApp::run() {
   open_window();
-  request_build(options_.scene);
+  // A course starts its study once the participant is known (given, or typed in the panel).
+  if (!course_)
+    request_build(options_.scene);
+  else if (!options_.participant.empty())
+    start_study(options_.participant);
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
@@ -381,6 +429,7 @@ int ViewerApp::run() {
     ImGui::NewFrame();
     handle_input();
     read_snapshot();
+    study_frame();
     int width = 0, height = 0;
     glfwGetFramebufferSize(window_, &width, &height);
     draw_scene(width, height);
@@ -390,7 +439,9 @@ int ViewerApp::run() {
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
     // Automation: once the servo clock passes exit_after, keep this frame and leave.
-    if (options_.exit_after > 0.0 && have_snapshot_ && snapshot_.t >= options_.exit_after) {
+    // A course's study also ends the run once its last trial has ended.
+    if (options_.exit_after > 0.0 &&
+        ((have_snapshot_ && snapshot_.t >= options_.exit_after) || (study_finished() && !build_))) {
       finish(width, height);
       break;
     }

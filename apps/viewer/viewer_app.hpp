@@ -5,7 +5,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -18,6 +20,9 @@
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
 #include "cariesim/training/course.hpp"
+#include "cariesim/training/headless.hpp"
+#include "cariesim/training/run.hpp"
+#include "cariesim/training/study.hpp"
 #include "force_history.hpp"
 #include "gl_renderer.hpp"
 #include "mouse_device.hpp"
@@ -26,6 +31,10 @@
 #include "viewer.hpp"
 
 struct GLFWwindow;
+
+namespace cariesim {
+class JsonWriter;
+}
 
 namespace cariesim::viewer {
 
@@ -47,6 +56,7 @@ struct SceneSession {
 /// A scene being built on a worker thread.
 struct PendingBuild {
   std::string source;
+  bool trial = false;  ///< the scene of the course study's current trial (its session records the trial)
   std::future<std::unique_ptr<Model>> result;
   std::mutex mutex;  // guards `stage` (worker and UI thread; never the servo thread)
   std::string stage;
@@ -80,8 +90,10 @@ class ViewerApp {
   void open_window();
   // Sessions (viewer.cpp).
   void request_build(const std::string& source);
+  /// Builds a scene that `load` describes (on the worker thread); `label` names it in messages.
+  void request_build(const std::string& label, std::function<SceneDesc()> load, bool trial);
   void poll_build();
-  void start_session(std::unique_ptr<Model> model, const std::string& source);
+  void start_session(std::unique_ptr<Model> model, const std::string& source, bool trial = false);
   void restart_servo();
   // Frame work (viewer.cpp).
   void handle_input();
@@ -146,6 +158,37 @@ class ViewerApp {
   [[nodiscard]] ViewSettings shown_settings() const;
   void submit_passphrase(const std::string& passphrase);
   std::vector<std::string> sections_;  // the panel's sections drawn in the last frame
+
+  // The course's study (study_panel.cpp): the study and its run for the participant, what the panel
+  // holds for the current trial (tuning sliders, shapes named, the grade of the next mark), the
+  // answers file that plays the participant (--answers), the trials ended.
+  std::optional<training::Study> study_;
+  std::unique_ptr<training::StudyRun> run_;
+  std::string participant_input_;
+  std::string study_message_;
+  bool study_message_is_error_ = false;
+  std::map<std::string, double> tuning_values_;  // parameter name -> slider value (its unit)
+  int tuned_lesion_ = -1;                         // the model's lesion the sliders change
+  std::vector<int> shape_choice_;                 // per cube: index into shape_choices, -1: not named
+  int grade_choice_ = 0;                          // the next mark's grade: 0 mild, 1 severe
+  uint32_t previous_buttons_ = 0;                 // device buttons in the last snapshot
+  bool device_seen_valid_ = false;                // the trial's device gave a valid reading
+  std::optional<training::ScriptedAnswers> answers_;
+  std::size_t answer_mark_next_ = 0;
+  std::vector<training::TrialResult> results_;
+  [[nodiscard]] bool study_finished() const { return run_ && run_->finished(); }
+  [[nodiscard]] bool trial_live() const;
+  void start_study(const std::string& participant);
+  void begin_trial();
+  void end_trial();
+  void study_frame();
+  void study_mark();
+  void reset_tuning_sliders();
+  void confirm_tuning();
+  void submit_shapes();
+  void play_answers();
+  void panel_study();
+  void study_json(JsonWriter& json) const;
 
   // The window script (--script): its steps, the next one, a key it pressed in the last frame.
   std::vector<ScriptStep> script_;

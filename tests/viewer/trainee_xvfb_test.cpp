@@ -1,0 +1,204 @@
+// Trainee mode in the real window under Xvfb (issue #13): nothing on screen or in the status file
+// gives a lesion away, the reveal key does nothing, the instructor's passphrase opens the full panel
+// (a wrong one does not), and a built-in study runs end to end through the viewer with scripted motion
+// and answers, writing the study database. Screenshots stay in build/test-artifacts/viewer/trainee-*.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cariesim/scene/scene.hpp"
+#include "cariesim/training/course.hpp"
+#include "cariesim/training/study.hpp"
+#include "support/files.hpp"
+#include "viewer_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using cariesim::test::have_xvfb;
+using cariesim::test::Image;
+using cariesim::test::json_query;
+using cariesim::test::load_png;
+using cariesim::test::read_text;
+using cariesim::test::run_under_xvfb;
+using cariesim::test::RunResult;
+using cariesim::test::shell;
+using cariesim::test::viewer_artefacts;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+constexpr const char* kPassphrase = "molar probe 46";
+
+// Pixels that differ (any channel by more than `tolerance`) inside the 3-D view (x < view_w).
+int differing_pixels(const Image& a, const Image& b, int view_w, int tolerance = 0) {
+  if (a.w != b.w || a.h != b.h) return -1;
+  int n = 0;
+  for (int y = 0; y < a.h; ++y)
+    for (int x = 0; x < std::min(view_w, a.w); ++x)
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(a.at(x, y)[k] - b.at(x, y)[k]) > tolerance) {
+          ++n;
+          break;
+        }
+  return n;
+}
+
+// A screenshot run: `cariesim run ARGS --no-realtime --exit-after S --screenshot NAME.png`.
+RunResult shot(const std::string& name, const std::string& args, double exit_after = 1.0) {
+  const fs::path png = viewer_artefacts() / (name + ".png");
+  fs::remove(png);
+  fs::remove(viewer_artefacts() / (name + ".json"));
+  return run_under_xvfb("run " + args + " --no-realtime --exit-after " + std::to_string(exit_after) +
+                            " --screenshot '" + png.string() + "'",
+                        name);
+}
+
+fs::path png_of(const std::string& name) { return viewer_artefacts() / (name + ".png"); }
+fs::path json_of(const std::string& name) { return viewer_artefacts() / (name + ".json"); }
+
+// A scratch folder for course files and databases.
+fs::path scratch(const std::string& name) {
+  const fs::path dir = viewer_artefacts() / ("trainee-" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// A course file in `dir` on `study` whose instructor passphrase is kPassphrase.
+fs::path write_course(const fs::path& dir, const std::string& study) {
+  const fs::path file = dir / "course.yaml";
+  std::ofstream(file) << "course: Trainee mode test\nstudy: " << study << "\nrecords: records\nstation: xvfb-1\n"
+                      << "instructor: "
+                      << cariesim::training::hash_passphrase(kPassphrase, cariesim::training::kPassphraseMinIterations)
+                      << "\n";
+  return file;
+}
+
+class TraineeXvfb : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (Debian package xvfb; scripts/setup installs it)";
+  }
+};
+
+// The boundary cube hides a square or a circle: in trainee mode the view's pixels are the same for
+// both, even after the reveal key; revealed (the ordinary window with --show-lesions) they differ.
+TEST_F(TraineeXvfb, TheBoundaryCubeLooksTheSameWhateverItHides) {
+  const fs::path script = scratch("boundary") / "reveal.txt";
+  std::ofstream(script) << "0.3 key L\n";
+  for (const std::string shape : {"square", "circle"}) {
+    const RunResult r = shot("trainee-boundary-" + shape, "--scene boundary-" + shape +
+                                                               " --trainee --device null --script '" +
+                                                               script.string() + "'");
+    ASSERT_EQ(r.status, 0) << r.err << r.out;
+    EXPECT_THAT(r.out, HasSubstr("run: trainee mode"));
+    EXPECT_THAT(r.out, Not(HasSubstr("scene boundary"))) << "the summary names no scene in trainee mode";
+    EXPECT_THAT(r.out, Not(HasSubstr("state "))) << "nor the interaction state";
+    const RunResult shown = shot("revealed-boundary-" + shape, "--scene boundary-" + shape + " --device null --show-lesions");
+    ASSERT_EQ(shown.status, 0) << shown.err;
+  }
+  const Image square = load_png(png_of("trainee-boundary-square")), circle = load_png(png_of("trainee-boundary-circle"));
+  ASSERT_NE(square.data, nullptr);
+  ASSERT_NE(circle.data, nullptr);
+  const int view_w = std::stoi(json_query(json_of("trainee-boundary-square"), "d['view']['w']"));
+  const int hidden = differing_pixels(square, circle, view_w);
+  const int revealed =
+      differing_pixels(load_png(png_of("revealed-boundary-square")), load_png(png_of("revealed-boundary-circle")), view_w);
+  std::printf("boundary cube: %d view pixels differ between square and circle in trainee mode, %d revealed\n",
+              hidden, revealed);
+  EXPECT_EQ(hidden, 0);
+  EXPECT_GT(revealed, 1000) << "the comparison sees a revealed lesion";
+
+  // The status file: the trainee's sections only, and nothing of the scene or the engine's state.
+  const fs::path json = json_of("trainee-boundary-square");
+  EXPECT_EQ(json_query(json, "d['mode']"), "trainee");
+  EXPECT_EQ(json_query(json, "d['panel_sections']"), "['Trainee', 'View', 'Instructor']");
+  for (const char* key : {"scene", "state", "depth", "contacts", "touched", "force", "lesions_shown"})
+    EXPECT_EQ(json_query(json, std::string("'") + key + "' in d"), "False") << key;
+  const std::string text = read_text(json);
+  EXPECT_THAT(text, Not(HasSubstr("square")));
+  EXPECT_THAT(text, Not(HasSubstr("caries")));
+  // The ordinary window has them, the lesion panel among its sections.
+  EXPECT_EQ(json_query(json_of("revealed-boundary-square"), "d['scene']"), "boundary-square");
+  EXPECT_THAT(json_query(json_of("revealed-boundary-square"), "d['panel_sections']"), HasSubstr("Lesion parameters"));
+}
+
+// real-arch's teeth 46 and 36 (cut by lesions) look as they would with no lesion at all: the same
+// view pixels as the scene with its lesions removed.
+TEST_F(TraineeXvfb, RealArchShowsNoSeamWhereLesionsAre) {
+  // real-arch without its `lesions:` section (the built-in's text up to the next top-level key).
+  std::string yaml(cariesim::builtin_scene_yaml("real-arch"));
+  const std::size_t begin = yaml.find("\nlesions:");
+  ASSERT_NE(begin, std::string::npos);
+  std::size_t end = begin + 1;
+  while (true) {
+    end = yaml.find('\n', end);
+    if (end == std::string::npos || (end + 1 < yaml.size() && yaml[end + 1] != ' ' && yaml[end + 1] != '#' &&
+                                     yaml[end + 1] != '\n' && yaml[end + 1] != '-'))
+      break;
+    ++end;
+  }
+  yaml.erase(begin + 1, end == std::string::npos ? std::string::npos : end - begin);
+  const fs::path plain = scratch("real-arch") / "real-arch-plain.yaml";
+  std::ofstream(plain) << yaml;
+  ASSERT_EQ(cariesim::load_scene(plain.string()).lesions.size(), 0u);
+  ASSERT_GT(cariesim::load_scene("real-arch").lesions.size(), 0u);
+
+  const RunResult with = shot("trainee-real-arch", "--scene real-arch --trainee --device null", 0.5);
+  ASSERT_EQ(with.status, 0) << with.err;
+  const RunResult without = shot("trainee-real-arch-plain", "--scene '" + plain.string() + "' --trainee --device null", 0.5);
+  ASSERT_EQ(without.status, 0) << without.err;
+  const RunResult shown = shot("revealed-real-arch", "--scene real-arch --device null --show-lesions", 0.5);
+  ASSERT_EQ(shown.status, 0) << shown.err;
+  const int view_w = std::stoi(json_query(json_of("trainee-real-arch"), "d['view']['w']"));
+  const Image a = load_png(png_of("trainee-real-arch")), b = load_png(png_of("trainee-real-arch-plain"));
+  ASSERT_NE(a.data, nullptr);
+  ASSERT_NE(b.data, nullptr);
+  const int hidden = differing_pixels(a, b, view_w);
+  const int revealed = differing_pixels(load_png(png_of("revealed-real-arch")), b, view_w);
+  std::printf("real-arch: %d view pixels differ from the lesion-free arch in trainee mode, %d revealed\n", hidden,
+              revealed);
+  EXPECT_EQ(hidden, 0);
+  EXPECT_GT(revealed, 20) << "the comparison sees the revealed lesions";
+}
+
+// A wrong passphrase is refused and counted, the reveal key does nothing while locked, and the right
+// passphrase opens the full panel (still with the lesions hidden: L did nothing); unlocked, L works.
+TEST_F(TraineeXvfb, OnlyTheInstructorsPassphraseUnlocks) {
+  const fs::path dir = scratch("unlock");
+  const fs::path course = write_course(dir, "tuning");
+  const std::string base = "--course '" + course.string() + "' --participant P01 --trials 1 --device null";
+  std::ofstream(dir / "wrong.txt") << "0.2 key L\n0.4 passphrase molar probe 47\n0.6 passphrase Molar Probe 46\n";
+  std::ofstream(dir / "right.txt") << "0.2 key L\n0.4 passphrase nope nope\n0.6 passphrase " << kPassphrase << "\n";
+  std::ofstream(dir / "right-then-l.txt") << "0.4 passphrase " << kPassphrase << "\n0.6 key L\n";
+
+  const RunResult wrong = shot("trainee-unlock-wrong", base + " --script '" + (dir / "wrong.txt").string() + "'", 1.5);
+  ASSERT_EQ(wrong.status, 0) << wrong.err;
+  EXPECT_THAT(wrong.err, HasSubstr("wrong instructor passphrase (2 refused)"));
+  const fs::path w = json_of("trainee-unlock-wrong");
+  EXPECT_EQ(json_query(w, "d['mode']"), "trainee");
+  EXPECT_EQ(json_query(w, "(d['instructor']['unlocked'], d['instructor']['refused'])"), "(False, 2)");
+  EXPECT_EQ(json_query(w, "'Lesion parameters' in d['panel_sections']"), "False");
+  EXPECT_EQ(json_query(w, "d['panel_sections']"), "['Trainee', 'Study', 'View', 'Instructor']");
+
+  const RunResult right = shot("trainee-unlock-right", base + " --script '" + (dir / "right.txt").string() + "'", 1.5);
+  ASSERT_EQ(right.status, 0) << right.err;
+  EXPECT_THAT(right.err, HasSubstr("instructor unlocked"));
+  const fs::path r = json_of("trainee-unlock-right");
+  EXPECT_EQ(json_query(r, "d['mode']"), "instructor");
+  EXPECT_EQ(json_query(r, "(d['instructor']['unlocked'], d['instructor']['refused'])"), "(True, 1)");
+  EXPECT_EQ(json_query(r, "'Lesion parameters' in d['panel_sections'] and 'Status' in d['panel_sections']"), "True");
+  EXPECT_EQ(json_query(r, "d['lesions_shown']"), "False") << "L pressed while locked did nothing";
+
+  const RunResult reveal = shot("trainee-unlock-reveal", base + " --script '" + (dir / "right-then-l.txt").string() + "'", 1.5);
+  ASSERT_EQ(reveal.status, 0) << reveal.err;
+  EXPECT_EQ(json_query(json_of("trainee-unlock-reveal"), "d['lesions_shown']"), "True") << "unlocked, L reveals";
+}
+
+}  // namespace
