@@ -201,4 +201,77 @@ TEST_F(TraineeXvfb, OnlyTheInstructorsPassphraseUnlocks) {
   EXPECT_EQ(json_query(json_of("trainee-unlock-reveal"), "d['lesions_shown']"), "True") << "unlocked, L reveals";
 }
 
+// Rows of an SQL query on a database through the sqlite3 shell, one line per row, '|' between columns.
+std::vector<std::string> sql_rows(const fs::path& db, const std::string& query) {
+  const fs::path out = db.string() + ".query.txt";
+  EXPECT_EQ(shell("sqlite3 '" + db.string() + "' \"" + query + "\" >'" + out.string() + "' 2>&1"), 0) << read_text(out);
+  std::vector<std::string> rows;
+  std::istringstream lines(read_text(out));
+  std::string line;
+  while (std::getline(lines, line)) rows.push_back(line);
+  return rows;
+}
+
+// A straight hover above the first cube for 1 s (free space, the tip lowest), as a trajectory file.
+fs::path write_hover(const fs::path& dir) {
+  const fs::path file = dir / "hover.csv";
+  std::ofstream(file) << "t,px,py,pz,qw,qx,qy,qz\n0,-165,-40,10,1,0,0,0\n1.0,-150,-40,10,1,0,0,0\n";
+  return file;
+}
+
+// The built-in boundary-shapes study, two trials, through the viewer in trainee mode: a scripted
+// device and an answers file play participant P07 (all three shapes right in trial 1, two swapped in
+// trial 2); the station's study database then holds both trials, ended, with their recordings and
+// the boundary scores of those answers (1 point, then 0).
+TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
+  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  const fs::path dir = scratch("study");
+  const fs::path course = write_course(dir, "boundary-shapes");
+  const fs::path hover = write_hover(dir);
+  // The hidden shapes of each trial, from the study and the seed as the run will draw them.
+  constexpr uint64_t kSeed = 42;
+  const cariesim::training::Study study = cariesim::training::load_study("boundary-shapes");
+  std::vector<std::vector<std::string>> truth;
+  for (int i = 0; i < 2; ++i)
+    truth.push_back(cariesim::training::make_trial(study, i, cariesim::training::trial_seed(kSeed, i)).truth.shapes);
+  ASSERT_EQ(truth[1].size(), 3u);
+  std::vector<std::string> wrong = truth[1];
+  std::swap(wrong[0], wrong[1]);
+  const auto list = [](const std::vector<std::string>& v) { return "[" + v[0] + ", " + v[1] + ", " + v[2] + "]"; };
+  const fs::path answers = dir / "answers.yaml";
+  std::ofstream(answers) << "trials:\n  - shapes: " << list(truth[0]) << "\n  - shapes: " << list(wrong) << "\n";
+
+  const RunResult r = shot("trainee-study",
+                           "--course '" + course.string() + "' --participant P07 --trials 2 --seed " +
+                               std::to_string(kSeed) + " --device 'scripted:" + hover.string() + "' --answers '" +
+                               answers.string() + "'",
+                           60.0);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_THAT(r.err, HasSubstr("trial 2 of 2 ended"));
+  const fs::path json = json_of("trainee-study");
+  EXPECT_EQ(json_query(json, "(d['study']['finished'], d['study']['ended'], d['study']['participant'])"),
+            "(True, 2, 'P07')");
+  EXPECT_EQ(json_query(json, "d['mode']"), "trainee");
+
+  // The study database: two ended trials of P07 at this station, their seeds and recordings.
+  const fs::path db = dir / "records" / "xvfb-1.db";
+  ASSERT_TRUE(fs::exists(db));
+  const std::vector<std::string> trials = sql_rows(
+      db, "SELECT participant, station, study, kind, seed, ended_at IS NOT NULL, recording FROM trials ORDER BY id");
+  ASSERT_EQ(trials.size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_THAT(trials[i], ::testing::StartsWith("P07|xvfb-1|boundary-shapes|boundary-shapes|" +
+                                                 std::to_string(cariesim::training::trial_seed(kSeed, i)) + "|1|"));
+    const std::string recording = trials[i].substr(trials[i].rfind('|') + 1);
+    EXPECT_TRUE(fs::exists(dir / "records" / recording)) << recording;
+  }
+  // The scores of those answers.
+  EXPECT_EQ(sql_rows(db, "SELECT s.value FROM scores s JOIN trials t ON s.trial_id = t.id WHERE s.name = "
+                         "'boundary_point' ORDER BY t.id"),
+            (std::vector<std::string>{"1.0", "0.0"}));
+  EXPECT_EQ(sql_rows(db, "SELECT sum(s.value) FROM scores s JOIN trials t ON s.trial_id = t.id WHERE s.name = "
+                         "'shape_correct' GROUP BY t.id ORDER BY t.id"),
+            (std::vector<std::string>{"3.0", "1.0"}));
+}
+
 }  // namespace
