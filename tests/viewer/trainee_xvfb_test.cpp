@@ -274,4 +274,30 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
             (std::vector<std::string>{"3.0", "1.0"}));
 }
 
+// The diagnosis study's first case (the paper's three lesions on real-arch) in the viewer: the M key
+// marks at the tip (here at the tool's home, in the air: a false mark, graded mild, the panel's
+// default) and the answers file ends the case at 1.5 s; the trial's row has that mark and the
+// diagnosis scores it earns (three lesions, none detected, three missed, one false mark).
+TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
+  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  const fs::path dir = scratch("diagnosis");
+  const fs::path course = write_course(dir, "diagnosis");
+  std::ofstream(dir / "answers.yaml") << "trials:\n  - end: 1.5\n";
+  std::ofstream(dir / "keys.txt") << "0.5 key M\n";
+  const RunResult r = shot("trainee-diagnosis",
+                           "--course '" + course.string() + "' --participant P02 --trials 1 --device null --answers '" +
+                               (dir / "answers.yaml").string() + "' --script '" + (dir / "keys.txt").string() + "'",
+                           30.0);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_THAT(r.err, HasSubstr("trial 1 of 1 ended"));
+  const fs::path db = dir / "records" / "xvfb-1.db";
+  const std::vector<std::string> rows =
+      sql_rows(db, "SELECT kind, ended_at IS NOT NULL, json_array_length(json_extract(answers, '$.marks')) FROM trials");
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0], "diagnosis|1|1");
+  EXPECT_EQ(sql_rows(db, "SELECT name || '=' || value FROM scores WHERE name IN ('lesions', 'detected', 'missed', "
+                         "'false_marks') ORDER BY name"),
+            (std::vector<std::string>{"detected=0.0", "false_marks=1.0", "lesions=3.0", "missed=3.0"}));
+}
+
 }  // namespace
