@@ -203,6 +203,7 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
   // The options, then the database, then the seed.
   check_participant(options_.participant);
   if (options_.station.empty()) options_.station = host_name();
+  if (options_.recordings.empty()) options_.recordings = options_.database.stem().string() + "-recordings";
   if (options_.database.empty()) throw Error("study database: required (e.g. --out class.db)");
   trial_count_ = options_.trials.value_or(study_.trials);
   if (trial_count_ < 1) throw Error(fmt::format("trials: {} is not a trial count (at least 1)", trial_count_));

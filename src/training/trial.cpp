@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -37,7 +39,9 @@ void make_tuning(const Study& study, Draws& draws, TrialSetup& t) {
   t.levels = study.tuning.levels;
   draws.shuffle(t.levels);
   t.parameters = study.tuning.parameters;
-  for (TunedParameter& p : t.parameters) p.start = draws.uniform(p.min, p.max);
+  // Starts are rounded to 1e-4 (a slider's resolution), so the scene text holds them exactly.
+  for (TunedParameter& p : t.parameters)
+    p.start = std::clamp(std::round(draws.uniform(p.min, p.max) * 1e4) / 1e4, p.min, p.max);
   t.tuned_lesion = study.tuning.lesion;
 
   // The scene with the tuned lesion's material at the sliders' start values.

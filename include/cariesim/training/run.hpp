@@ -43,8 +43,10 @@ struct RunOptions {
   /// The study seed; unset: the study file's seed, else one drawn from std::random_device.
   std::optional<uint64_t> seed;
   std::optional<int> trials;        ///< overrides the study's trial count
-  /// Folder of the trials' recordings; relative paths are taken from the database's folder.
-  std::filesystem::path recordings = "recordings";
+  /// Folder of the trials' recordings; relative paths are taken from the database's folder. Empty:
+  /// "DB-recordings" beside the database (DB its file name without extension), so two databases in
+  /// one folder never share a recording name.
+  std::filesystem::path recordings;
 };
 
 /// A diagnosis mark: the participant held the tip here and pressed the mark key or button.
@@ -117,7 +119,7 @@ class StudyRun {
   /// The current trial's setup (valid after begin_trial()).
   [[nodiscard]] const TrialSetup& setup() const { return setup_; }
   /// Where the current trial's recording should go (absolute; its folder is created by
-  /// begin_trial()): RECORDINGS/STUDY-PARTICIPANT-ROW.db.
+  /// begin_trial()): RECORDINGS/STUDY-PARTICIPANT-ROW.db (ROW = trials.id).
   [[nodiscard]] const std::filesystem::path& recording_path() const { return recording_path_; }
 
   /// Tuning: the level being tuned now (setup().levels in order), or nullopt when all are confirmed.
