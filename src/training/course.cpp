@@ -9,6 +9,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/course.hpp"
+#include "cariesim/training/study.hpp"
 #include "scene/yaml_reader.hpp"
 
 namespace cariesim::training {
@@ -87,6 +88,12 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
         r.fail(f.get("study"), "study", fmt::format("study file not found: {}", path.string()));
       course.study = path.string();
     } else {
+      const std::vector<std::string> names = builtin_study_names();
+      if (std::find(names.begin(), names.end(), study) == names.end()) {
+        std::string list;
+        for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+        r.fail(f.get("study"), "study", fmt::format("no built-in study '{}' (built-ins: {}; a file ends in .yaml)", study, list));
+      }
       course.study = study;
     }
 

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <string>
 
@@ -116,6 +117,9 @@ TEST(Course, ErrorsNameFileLineColumnAndField) {
   std::string empty_name = course_yaml();
   empty_name.replace(empty_name.find("Caries diagnosis, group A"), 25, "''");
   EXPECT_THAT(parse_error(empty_name), HasSubstr("2:9: course: must not be empty"));
+  std::string unknown_study = course_yaml();
+  unknown_study.replace(unknown_study.find("study: diagnosis"), 16, "study: diagnosys");
+  EXPECT_THAT(parse_error(unknown_study), HasSubstr("3:8: study: no built-in study 'diagnosys' (built-ins: "));
   std::string format2 = course_yaml();
   format2.replace(format2.find("format: 1"), 9, "format: 2");
   EXPECT_THAT(parse_error(format2), HasSubstr("1:9: format"));
@@ -184,6 +188,25 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
     EXPECT_THROW((void)verify_passphrase("anything", h), Error) << h;
   }
   EXPECT_NO_THROW((void)parse_passphrase_hash("pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a')));
+}
+
+// docs/instructors.md's example course file parses, and its hash is of the passphrase the page names.
+TEST(Course, TheInstructorsPageExampleIsValid) {
+  std::ifstream in(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "instructors.md");
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t section = doc.find("## 2. The course file");
+  ASSERT_NE(section, std::string::npos);
+  const std::size_t open = doc.find("```yaml\n", section);
+  ASSERT_NE(open, std::string::npos);
+  const std::size_t close = doc.find("```", open + 8);
+  const Course c = parse_course(doc.substr(open + 8, close - open - 8), "docs/course.yaml");
+  EXPECT_EQ(c.study, "diagnosis");
+  EXPECT_EQ(c.station, "chair-3");
+  EXPECT_EQ(c.database(), fs::path("docs/records/chair-3.db"));
+  EXPECT_EQ(c.participants.size(), 3u);
+  EXPECT_NE(doc.find("hash of `change me please`"), std::string::npos);
+  EXPECT_TRUE(verify_passphrase("change me please", c.instructor_hash));
+  EXPECT_EQ(parse_passphrase_hash(c.instructor_hash).iterations, cariesim::training::kPassphraseIterations);
 }
 
 }  // namespace
