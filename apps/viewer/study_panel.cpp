@@ -62,8 +62,21 @@ void ViewerApp::start_study(const std::string& participant) {
   run_options.seed = options_.seed;
   std::error_code ec;
   std::filesystem::create_directories(course_->records, ec);
-  if (ec) throw Error(fmt::format("{}: cannot create the records folder: {}", course_->records.string(), ec.message()));
-  run_ = std::make_unique<training::StudyRun>(*study_, run_options);
+  if (ec) {
+    study_message_ = fmt::format("{}: cannot create the records folder: {}", course_->records.string(), ec.message());
+    study_message_is_error_ = true;
+    std::fprintf(stderr, "run: %s\n", study_message_.c_str());
+    return;
+  }
+  // A database that cannot be opened or written is said in the panel (and on stderr); the window stays.
+  try {
+    run_ = std::make_unique<training::StudyRun>(*study_, run_options);
+  } catch (const Error& e) {
+    study_message_ = e.what();
+    study_message_is_error_ = true;
+    std::fprintf(stderr, "run: cannot start the study: %s\n", e.what());
+    return;
+  }
   std::fprintf(stderr, "run: study %s for %s at station %s, %d trials, seed %llu, database %s\n",
                study_->name.c_str(), participant.c_str(), course_->station.c_str(), run_->trial_count(),
                static_cast<unsigned long long>(run_->seed()), course_->database().string().c_str());
@@ -95,7 +108,8 @@ void ViewerApp::end_trial() {
     study_message_.clear();
   } catch (const Error& e) {
     // The row keeps ended_at NULL; the run moves on.
-    study_message_ = fmt::format("Trial {} could not be saved: {}", index + 1, e.what());
+    study_message_ = locked() ? fmt::format("Trial {} could not be saved; please call the instructor.", index + 1)
+                              : fmt::format("Trial {} could not be saved: {}", index + 1, e.what());
     study_message_is_error_ = true;
     std::fprintf(stderr, "run: trial %d could not be saved: %s\n", index + 1, e.what());
     run_->abandon_trial();

@@ -189,7 +189,9 @@ void ViewerApp::poll_build() {
     // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
     // ended_at NULL); otherwise the first scene's failure is fatal.
     if (done->trial && run_) {
-      study_message_ = std::string("This trial could not start: ") + e.what();
+      // The reason may name the trial's hidden parts: a trainee is only told to call the instructor.
+      study_message_ = locked() ? std::string("This trial could not start; please call the instructor.")
+                                : std::string("This trial could not start: ") + e.what();
       study_message_is_error_ = true;
       std::fprintf(stderr, "run: trial %d could not start: %s\n", run_->current_trial() + 1, e.what());
       run_->abandon_trial();

@@ -300,4 +300,29 @@ TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
             (std::vector<std::string>{"detected=0.0", "false_marks=1.0", "lesions=3.0", "missed=3.0"}));
 }
 
+// The tuning study in the viewer: the answers file moves the sliders and confirms each level; the
+// values reach the servo thread (the trial's recording has them as `param` events on the tuned
+// lesion) and the study database (the tuned values as scores per level).
+TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
+  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  const fs::path dir = scratch("tuning");
+  const fs::path course = write_course(dir, "tuning");
+  std::ofstream(dir / "answers.yaml")
+      << "trials:\n  - tuning: {mild: {mu_s: 0.2, mu_d: 0.15}, severe: {mu_s: 0.55, mu_d: 0.45}}\n    end: 0.8\n";
+  const RunResult r = shot("trainee-tuning",
+                           "--course '" + course.string() + "' --participant P03 --trials 1 --device null --answers '" +
+                               (dir / "answers.yaml").string() + "'",
+                           20.0);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const fs::path db = dir / "records" / "xvfb-1.db";
+  EXPECT_EQ(sql_rows(db, "SELECT name || ' ' || level || ' ' || value FROM scores ORDER BY name, level"),
+            (std::vector<std::string>{"mu_d mild 0.15", "mu_d severe 0.45", "mu_s mild 0.2", "mu_s severe 0.55"}));
+  const std::vector<std::string> recording = sql_rows(db, "SELECT recording FROM trials WHERE ended_at IS NOT NULL");
+  ASSERT_EQ(recording.size(), 1u);
+  const std::vector<std::string> params =
+      sql_rows(dir / "records" / recording[0], "SELECT detail || ' ' || value FROM events WHERE kind = 'param' AND "
+                                               "lesion = 0 AND t > 0.5 ORDER BY id");
+  EXPECT_EQ(params, (std::vector<std::string>{"mu_d 0.15", "mu_s 0.2", "mu_d 0.45", "mu_s 0.55"}));
+}
+
 }  // namespace
