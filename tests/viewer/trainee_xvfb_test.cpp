@@ -310,7 +310,7 @@ TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
   std::ofstream(dir / "answers.yaml")
       << "trials:\n  - tuning: {mild: {mu_s: 0.2, mu_d: 0.15}, severe: {mu_s: 0.55, mu_d: 0.45}}\n    end: 0.8\n";
   const RunResult r = shot("trainee-tuning",
-                           "--course '" + course.string() + "' --participant P03 --trials 1 --device null --answers '" +
+                           "--course '" + course.string() + "' --participant P03 --trials 1 --seed 7 --device null --answers '" +
                                (dir / "answers.yaml").string() + "'",
                            20.0);
   ASSERT_EQ(r.status, 0) << r.err << r.out;
@@ -322,7 +322,16 @@ TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
   const std::vector<std::string> params =
       sql_rows(dir / "records" / recording[0], "SELECT detail || ' ' || value FROM events WHERE kind = 'param' AND "
                                                "lesion = 0 AND t > 0.5 ORDER BY id");
-  EXPECT_EQ(params, (std::vector<std::string>{"mu_d 0.15", "mu_s 0.2", "mu_d 0.45", "mu_s 0.55"}));
+  // In the order the trial asked for the levels (drawn from its seed), each level's values.
+  const cariesim::training::TrialSetup setup = cariesim::training::make_trial(
+      cariesim::training::load_study("tuning"), 0, cariesim::training::trial_seed(7, 0));
+  std::vector<std::string> expected;
+  for (const cariesim::training::Grade level : setup.levels) {
+    const bool mild = level == cariesim::training::Grade::Mild;
+    expected.push_back(mild ? "mu_d 0.15" : "mu_d 0.45");
+    expected.push_back(mild ? "mu_s 0.2" : "mu_s 0.55");
+  }
+  EXPECT_EQ(params, expected);
 }
 
 }  // namespace
