@@ -55,7 +55,8 @@ int check_command(const std::string& file) {
   const training::Course c = training::load_course(file);
   const training::Study study = training::load_study(c.study);
   std::printf("ok: %s (%s)\n", c.name.c_str(), file.c_str());
-  std::printf("  study    %s%s: %s, %d trials\n", c.study.c_str(), c.study_is_file ? " (file)" : " (built-in)",
+  std::printf("  study    %s%s: %s, %d trials\n", c.study.c_str(),
+              c.study_is_file ? " (file)" : " (built-in)",
               std::string(training::study_kind_name(study.kind)).c_str(), study.trials);
   std::printf("  station  %s, study database %s\n", c.station.c_str(), c.database().string().c_str());
   if (c.participants.empty())

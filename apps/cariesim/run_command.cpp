@@ -1,8 +1,8 @@
 // `cariesim run` (and `cariesim` with no subcommand), DESIGN.md §5-6: the simulator window on a
 // scene with a device, the servo loop on its own thread, optionally a session record; for automation
 // a screenshot after some seconds of servo time. docs/viewer.md describes the window.
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
@@ -103,7 +103,8 @@ void register_run(CLI::App& app, Registry& registry) {
                                  "Course file: trainee mode running its study (docs/instructors.md)");
   sub->add_option("--participant", args->participant, "Participant ID for the course's study (else asked)")
       ->needs(course);
-  sub->add_option("--station", args->station, "This station's name (overrides the course file's)")->needs(course);
+  sub->add_option("--station", args->station, "This station's name (overrides the course file's)")
+      ->needs(course);
   sub->add_option("--answers", args->answers,
                   "Answers file that plays the participant (the format of `cariesim study run --answers`)")
       ->needs(course);

@@ -448,7 +448,12 @@ std::string ViewerApp::status_json(int width, int height) const {
   if (!locked()) {
     json.field("scene", session_ ? session_->source : std::string());
     json.field("state", state_name(out.state));
-    json.key("force").begin_array().value(out.force.x()).value(out.force.y()).value(out.force.z()).end_array();
+    json.key("force")
+        .begin_array()
+        .value(out.force.x())
+        .value(out.force.y())
+        .value(out.force.z())
+        .end_array();
     json.field("force_norm", out.force.norm());
     json.field("rendered_force_norm", snapshot_.force.norm());
     json.field("torque_norm", out.torque.norm());

@@ -23,11 +23,16 @@ namespace {
 // The ParamChange field a tuned parameter moves (names of study_schema.hpp's kScore*).
 bool tuned_field(const std::string& name, ParamChange::Field& out) {
   using F = ParamChange::Field;
-  if (name == "mu_s") out = F::MuS;
-  else if (name == "mu_d") out = F::MuD;
-  else if (name == "k_c") out = F::KC;
-  else if (name == "k_e") out = F::KE;
-  else return false;
+  if (name == "mu_s")
+    out = F::MuS;
+  else if (name == "mu_d")
+    out = F::MuD;
+  else if (name == "k_c")
+    out = F::KC;
+  else if (name == "k_e")
+    out = F::KE;
+  else
+    return false;
   return true;
 }
 
@@ -63,7 +68,8 @@ void ViewerApp::start_study(const std::string& participant) {
   std::error_code ec;
   std::filesystem::create_directories(course_->records, ec);
   if (ec) {
-    study_message_ = fmt::format("{}: cannot create the records folder: {}", course_->records.string(), ec.message());
+    study_message_ =
+        fmt::format("{}: cannot create the records folder: {}", course_->records.string(), ec.message());
     study_message_is_error_ = true;
     std::fprintf(stderr, "run: %s\n", study_message_.c_str());
     return;
@@ -90,8 +96,9 @@ void ViewerApp::begin_trial() {
   const training::TrialSetup& setup = run_->begin_trial();
   have_snapshot_ = false;
   const training::TrialSetup copy = setup;
-  request_build(fmt::format("trial {} of {}", setup.index + 1, run_->trial_count()),
-                [copy] { return copy.scene(); }, true);
+  request_build(
+      fmt::format("trial {} of {}", setup.index + 1, run_->trial_count()), [copy] { return copy.scene(); },
+      true);
 }
 
 void ViewerApp::end_trial() {
@@ -101,15 +108,17 @@ void ViewerApp::end_trial() {
   if (session_) session_->stop();
   have_snapshot_ = false;
   try {
-    training::TrialResult result = run_->end_trial(run_->recording_path(), session_ ? session_->model.get() : nullptr);
+    training::TrialResult result =
+        run_->end_trial(run_->recording_path(), session_ ? session_->model.get() : nullptr);
     std::fprintf(stderr, "run: trial %d of %d ended (row %lld)\n", index + 1, run_->trial_count(),
                  static_cast<long long>(result.row));
     results_.push_back(std::move(result));
     study_message_.clear();
   } catch (const Error& e) {
     // The row keeps ended_at NULL; the run moves on.
-    study_message_ = locked() ? fmt::format("Trial {} could not be saved; please call the instructor.", index + 1)
-                              : fmt::format("Trial {} could not be saved: {}", index + 1, e.what());
+    study_message_ = locked()
+                         ? fmt::format("Trial {} could not be saved; please call the instructor.", index + 1)
+                         : fmt::format("Trial {} could not be saved: {}", index + 1, e.what());
     study_message_is_error_ = true;
     std::fprintf(stderr, "run: trial %d could not be saved: %s\n", index + 1, e.what());
     run_->abandon_trial();
@@ -152,7 +161,8 @@ void ViewerApp::submit_shapes() {
   try {
     for (std::size_t cube = 0; cube < shape_choice_.size(); ++cube) {
       if (shape_choice_[cube] < 0) throw Error(fmt::format("name the shape of cube {} first", cube + 1));
-      run_->name_shape(static_cast<int>(cube), setup.shape_choices.at(static_cast<std::size_t>(shape_choice_[cube])));
+      run_->name_shape(static_cast<int>(cube),
+                       setup.shape_choices.at(static_cast<std::size_t>(shape_choice_[cube])));
     }
   } catch (const Error& e) {
     study_message_ = e.what();
@@ -189,7 +199,8 @@ void ViewerApp::study_frame() {
     if (!trial_live()) return;
   }
   // A diagnosis case ends at its time limit (without End case).
-  if (setup.kind == training::StudyKind::Diagnosis && setup.time_limit > 0.0 && snapshot_.t >= setup.time_limit)
+  if (setup.kind == training::StudyKind::Diagnosis && setup.time_limit > 0.0 &&
+      snapshot_.t >= setup.time_limit)
     end_trial();
 }
 
@@ -198,7 +209,8 @@ void ViewerApp::play_answers() {
   // gives a point), and at the entry's `end` or when the scripted path ends: the tuned values, the
   // shapes, or End case, through the calls the panel's buttons make.
   const auto& entries = answers_->trials;
-  const training::ScriptedTrial& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
+  const training::ScriptedTrial& entry =
+      entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
   const training::TrialSetup& setup = run_->setup();
   const double t = snapshot_.t;
   while (answer_mark_next_ < entry.marks.size() && entry.marks[answer_mark_next_].t <= t) {
@@ -244,7 +256,8 @@ void ViewerApp::play_answers() {
       for (std::size_t cube = 0; cube < shape_choice_.size(); ++cube) {
         const std::string name = cube < entry.shapes.size() ? entry.shapes[cube] : std::string();
         const auto it = std::find(setup.shape_choices.begin(), setup.shape_choices.end(), name);
-        shape_choice_[cube] = it == setup.shape_choices.end() ? -1 : static_cast<int>(it - setup.shape_choices.begin());
+        shape_choice_[cube] =
+            it == setup.shape_choices.end() ? -1 : static_cast<int>(it - setup.shape_choices.begin());
       }
       submit_shapes();
       if (trial_live()) end_trial();  // an incomplete answer still ends the trial (its row stays open)
@@ -261,7 +274,8 @@ void ViewerApp::panel_study() {
   // Before the run: the participant's ID.
   if (!run_) {
     ImGui::TextWrapped("Type your participant ID and press Start.");
-    const bool enter = ImGui::InputText("participant", &participant_input_, ImGuiInputTextFlags_EnterReturnsTrue);
+    const bool enter =
+        ImGui::InputText("participant", &participant_input_, ImGuiInputTextFlags_EnterReturnsTrue);
     ImGui::SameLine();
     if ((ImGui::Button("Start") || enter) && !participant_input_.empty()) start_study(participant_input_);
   } else {
@@ -280,9 +294,10 @@ void ViewerApp::panel_study() {
           const auto level = run_->current_level();
           if (!level) break;
           const std::size_t done = run_->answers().tuned.size();
-          ImGui::TextWrapped("Level %zu of %zu: move the sliders until the lesion feels like %s caries, then "
-                             "Confirm.",
-                             done + 1, setup.levels.size(), std::string(training::grade_name(*level)).c_str());
+          ImGui::TextWrapped(
+              "Level %zu of %zu: move the sliders until the lesion feels like %s caries, then "
+              "Confirm.",
+              done + 1, setup.levels.size(), std::string(training::grade_name(*level)).c_str());
           for (const training::TunedParameter& p : setup.parameters) {
             double& value = tuning_values_[p.name];
             const std::string label = p.unit.empty() ? p.name : fmt::format("{} ({})", p.name, p.unit);
@@ -292,7 +307,8 @@ void ViewerApp::panel_study() {
                 post(ParamChange{field, static_cast<int16_t>(tuned_lesion_), value});
             }
           }
-          if (ImGui::Button(fmt::format("Confirm {}", training::grade_name(*level)).c_str())) confirm_tuning();
+          if (ImGui::Button(fmt::format("Confirm {}", training::grade_name(*level)).c_str()))
+            confirm_tuning();
           break;
         }
         case training::StudyKind::Boundary: {
@@ -307,7 +323,8 @@ void ViewerApp::panel_study() {
                 shape_choice_[cube] = static_cast<int>(k);
             }
           }
-          const bool all = std::all_of(shape_choice_.begin(), shape_choice_.end(), [](int c) { return c >= 0; });
+          const bool all =
+              std::all_of(shape_choice_.begin(), shape_choice_.end(), [](int c) { return c >= 0; });
           ImGui::BeginDisabled(!all);
           if (ImGui::Button("Submit")) submit_shapes();
           ImGui::EndDisabled();
@@ -315,8 +332,9 @@ void ViewerApp::panel_study() {
         }
         case training::StudyKind::Diagnosis: {
           // Marks with a grade, the countdown, End case.
-          ImGui::TextWrapped("Find the carious lesions. Hold the tip on a suspected lesion and press M (or "
-                             "the device's button) to mark it with the grade chosen here; End case when done.");
+          ImGui::TextWrapped(
+              "Find the carious lesions. Hold the tip on a suspected lesion and press M (or "
+              "the device's button) to mark it with the grade chosen here; End case when done.");
           if (setup.time_limit > 0.0)
             ImGui::Text("time left %s", clock_text(setup.time_limit - snapshot_.t).c_str());
           ImGui::Text("next mark:");

@@ -71,7 +71,8 @@ std::vector<ScriptStep> parse_script(std::string_view text, const std::string& f
     ScriptStep step;
     step.line = number;
     const auto [end, ec] = std::from_chars(time_text.data(), time_text.data() + time_text.size(), step.t);
-    if (ec != std::errc() || end != time_text.data() + time_text.size() || !std::isfinite(step.t) || step.t < 0)
+    if (ec != std::errc() || end != time_text.data() + time_text.size() || !std::isfinite(step.t) ||
+        step.t < 0)
       fail(fmt::format("'{}' is not a time in seconds (>= 0)", time_text));
     if (!steps.empty() && step.t < steps.back().t)
       fail(fmt::format("time {:g} s is before the previous step's {:g} s", step.t, steps.back().t));

@@ -153,7 +153,8 @@ void ViewerApp::open_window() {
 }
 
 void ViewerApp::request_build(const std::string& source) {
-  request_build(source, [source] { return load_scene(source); }, false);
+  request_build(
+      source, [source] { return load_scene(source); }, false);
 }
 
 void ViewerApp::request_build(const std::string& label, std::function<SceneDesc()> load, bool trial) {

@@ -33,8 +33,8 @@ struct ViewerOptions {
   /// Answers file that plays the participant of the course's study (the format of `cariesim study
   /// run --answers`, docs/training.md); empty: the participant answers in the panel
   std::string answers;
-  std::optional<int> trials;      ///< overrides the course study's trial count
-  std::optional<uint64_t> seed;   ///< the course study's seed; unset: the study file's, else drawn
+  std::optional<int> trials;     ///< overrides the course study's trial count
+  std::optional<uint64_t> seed;  ///< the course study's seed; unset: the study file's, else drawn
   /// Window script for automation (docs/viewer.md): timed key presses and passphrases; empty: none
   std::string script;
 };

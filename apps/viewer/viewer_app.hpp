@@ -168,11 +168,11 @@ class ViewerApp {
   std::string study_message_;
   bool study_message_is_error_ = false;
   std::map<std::string, double> tuning_values_;  // parameter name -> slider value (its unit)
-  int tuned_lesion_ = -1;                         // the model's lesion the sliders change
-  std::vector<int> shape_choice_;                 // per cube: index into shape_choices, -1: not named
-  int grade_choice_ = 0;                          // the next mark's grade: 0 mild, 1 severe
-  uint32_t previous_buttons_ = 0;                 // device buttons in the last snapshot
-  bool device_seen_valid_ = false;                // the trial's device gave a valid reading
+  int tuned_lesion_ = -1;                        // the model's lesion the sliders change
+  std::vector<int> shape_choice_;                // per cube: index into shape_choices, -1: not named
+  int grade_choice_ = 0;                         // the next mark's grade: 0 mild, 1 severe
+  uint32_t previous_buttons_ = 0;                // device buttons in the last snapshot
+  bool device_seen_valid_ = false;               // the trial's device gave a valid reading
   std::optional<training::ScriptedAnswers> answers_;
   std::size_t answer_mark_next_ = 0;
   std::vector<training::TrialResult> results_;

@@ -1,5 +1,7 @@
 // Course files (training/course.hpp, docs/instructors.md): YAML -> Course, every field checked and
 // located with the scene parser's strict reader.
+#include "cariesim/training/course.hpp"
+
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -8,7 +10,6 @@
 #include <sstream>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/training/course.hpp"
 #include "cariesim/training/study.hpp"
 #include "scene/yaml_reader.hpp"
 
@@ -31,9 +32,10 @@ std::string required_text(const Reader& r, const Fields& f, std::string_view key
 std::string identifier(const Reader& r, const YAML::Node& node, const std::string& path) {
   std::string value = r.text(node, path);
   if (!valid_identifier(value))
-    r.fail(node, path,
-           fmt::format("'{}' is not a valid name: 1-64 letters, digits, '.', '_' or '-', not starting with '.'",
-                       value));
+    r.fail(
+        node, path,
+        fmt::format("'{}' is not a valid name: 1-64 letters, digits, '.', '_' or '-', not starting with '.'",
+                    value));
   return value;
 }
 
@@ -46,8 +48,8 @@ bool ends_with(std::string_view s, std::string_view suffix) {
 bool valid_identifier(std::string_view id) {
   if (id.empty() || id.size() > 64 || id.front() == '.') return false;
   return std::all_of(id.begin(), id.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-           c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == '-';
   });
 }
 
@@ -55,7 +57,8 @@ std::filesystem::path Course::database() const { return records / (station + ".d
 
 bool Course::allows(std::string_view id) const {
   if (!valid_identifier(id)) return false;
-  return participants.empty() || std::find(participants.begin(), participants.end(), id) != participants.end();
+  return participants.empty() ||
+         std::find(participants.begin(), participants.end(), id) != participants.end();
 }
 
 Course parse_course(std::string_view yaml, const std::filesystem::path& origin) {
@@ -72,7 +75,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
   }
 
   try {
-    const Fields f(r, root, "", {"format", "course", "study", "records", "station", "participants", "instructor"});
+    const Fields f(r, root, "",
+                   {"format", "course", "study", "records", "station", "participants", "instructor"});
     if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, "format", 1, 1);
     course.name = required_text(r, f, "course");
     const std::filesystem::path base = origin.parent_path();
@@ -92,7 +96,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
       if (std::find(names.begin(), names.end(), study) == names.end()) {
         std::string list;
         for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
-        r.fail(f.get("study"), "study", fmt::format("no built-in study '{}' (built-ins: {}; a file ends in .yaml)", study, list));
+        r.fail(f.get("study"), "study",
+               fmt::format("no built-in study '{}' (built-ins: {}; a file ends in .yaml)", study, list));
       }
       course.study = study;
     }
@@ -107,7 +112,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
       for (std::size_t i = 0; i < list.size(); ++i) {
         const std::string path = scene_detail::indexed("participants", i);
         std::string id = identifier(r, list[i], path);
-        if (std::find(course.participants.begin(), course.participants.end(), id) != course.participants.end())
+        if (std::find(course.participants.begin(), course.participants.end(), id) !=
+            course.participants.end())
           r.fail(list[i], path, fmt::format("participant '{}' is listed twice", id));
         course.participants.push_back(std::move(id));
       }
@@ -129,7 +135,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
 
 Course load_course(const std::filesystem::path& file) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) throw Error(fmt::format("{}: no such course file", file.string()));
+  if (!std::filesystem::is_regular_file(file, ec))
+    throw Error(fmt::format("{}: no such course file", file.string()));
   std::ifstream in(file, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();

@@ -62,8 +62,8 @@ PassphraseHash parse_passphrase_hash(std::string_view encoded) {
     start = dollar + 1;
   }
   if (fields.size() != 4 || fields[0] != kScheme)
-    throw Error(fmt::format("expected {}$ITERATIONS$SALT_HEX$HASH_HEX (made by `cariesim course hash`)",
-                            kScheme));
+    throw Error(
+        fmt::format("expected {}$ITERATIONS$SALT_HEX$HASH_HEX (made by `cariesim course hash`)", kScheme));
   // The iteration count, within the accepted range.
   PassphraseHash h;
   const std::string_view iter = fields[1];
@@ -101,7 +101,8 @@ std::string hash_passphrase(std::string_view passphrase, int iterations) {
 bool verify_passphrase(std::string_view passphrase, std::string_view encoded) {
   // The same derivation with the stored salt and count, compared in constant time.
   const PassphraseHash stored = parse_passphrase_hash(encoded);
-  const std::vector<unsigned char> key = derive(passphrase, stored.salt, stored.iterations, stored.hash.size());
+  const std::vector<unsigned char> key =
+      derive(passphrase, stored.salt, stored.iterations, stored.hash.size());
   return CRYPTO_memcmp(key.data(), stored.hash.data(), key.size()) == 0;
 }
 

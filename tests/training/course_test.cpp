@@ -1,5 +1,7 @@
 // Course files (training/course.hpp): parsing, located errors, and the instructor passphrase's
 // PBKDF2-HMAC-SHA256 hash checked against Python's hashlib (an independent implementation).
+#include "cariesim/training/course.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -10,7 +12,6 @@
 #include <string>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/training/course.hpp"
 
 namespace {
 
@@ -31,12 +32,13 @@ constexpr const char* kKnownHash =
 constexpr const char* kKnownPassphrase = "correct horse battery";
 
 std::string course_yaml(const std::string& extra = "") {
-  return std::string("format: 1\n"
-                     "course: Caries diagnosis, group A\n"
-                     "study: diagnosis\n"
-                     "records: records\n"
-                     "station: chair-3\n"
-                     "instructor: ") +
+  return std::string(
+             "format: 1\n"
+             "course: Caries diagnosis, group A\n"
+             "study: diagnosis\n"
+             "records: records\n"
+             "station: chair-3\n"
+             "instructor: ") +
          kKnownHash + "\n" + extra;
 }
 
@@ -110,7 +112,8 @@ TEST(Course, ErrorsNameFileLineColumnAndField) {
   // Bad values.
   std::string bad_station = course_yaml();
   bad_station.replace(bad_station.find("chair-3"), 7, "chair 3/../x");
-  EXPECT_THAT(parse_error(bad_station), HasSubstr("course.yaml:5:10: station: 'chair 3/../x' is not a valid name"));
+  EXPECT_THAT(parse_error(bad_station),
+              HasSubstr("course.yaml:5:10: station: 'chair 3/../x' is not a valid name"));
   EXPECT_THAT(parse_error(course_yaml("participants: [P01, P01]\n")),
               HasSubstr("7:21: participants[1]: participant 'P01' is listed twice"));
   EXPECT_THAT(parse_error(course_yaml("participants: P01\n")), HasSubstr("participants"));
@@ -119,7 +122,8 @@ TEST(Course, ErrorsNameFileLineColumnAndField) {
   EXPECT_THAT(parse_error(empty_name), HasSubstr("2:9: course: must not be empty"));
   std::string unknown_study = course_yaml();
   unknown_study.replace(unknown_study.find("study: diagnosis"), 16, "study: diagnosys");
-  EXPECT_THAT(parse_error(unknown_study), HasSubstr("3:8: study: no built-in study 'diagnosys' (built-ins: "));
+  EXPECT_THAT(parse_error(unknown_study),
+              HasSubstr("3:8: study: no built-in study 'diagnosys' (built-ins: "));
   std::string format2 = course_yaml();
   format2.replace(format2.find("format: 1"), 9, "format: 2");
   EXPECT_THAT(parse_error(format2), HasSubstr("1:9: format"));
@@ -187,7 +191,8 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
     EXPECT_THROW((void)parse_passphrase_hash(h), Error) << h;
     EXPECT_THROW((void)verify_passphrase("anything", h), Error) << h;
   }
-  EXPECT_NO_THROW((void)parse_passphrase_hash("pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a')));
+  EXPECT_NO_THROW(
+      (void)parse_passphrase_hash("pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a')));
 }
 
 // docs/instructors.md's example course file parses, and its hash is of the passphrase the page names.

@@ -30,8 +30,8 @@ Cli cariesim(const std::string& args, const std::string& input) {
   fs::create_directories(dir);
   std::ofstream(dir / "stdin.txt") << input;
   Cli r;
-  r.status = shell("'" + std::string(CARIESIM_EXE) + "' " + args + " <'" + (dir / "stdin.txt").string() + "' >'" +
-                   (dir / "out.txt").string() + "' 2>'" + (dir / "err.txt").string() + "'");
+  r.status = shell("'" + std::string(CARIESIM_EXE) + "' " + args + " <'" + (dir / "stdin.txt").string() +
+                   "' >'" + (dir / "out.txt").string() + "' 2>'" + (dir / "err.txt").string() + "'");
   r.out = read_text(dir / "out.txt");
   r.err = read_text(dir / "err.txt");
   return r;
@@ -44,7 +44,8 @@ TEST(CourseCli, HashPrintsAVerifiableHash) {
   while (!hash.empty() && hash.back() == '\n') hash.pop_back();
   EXPECT_THAT(hash, ::testing::StartsWith("pbkdf2-sha256$100000$"));
   EXPECT_TRUE(cariesim::training::verify_passphrase("lab passphrase 9", hash));
-  EXPECT_FALSE(cariesim::training::verify_passphrase("lab passphrase 9\n", hash)) << "the line end is not part of it";
+  EXPECT_FALSE(cariesim::training::verify_passphrase("lab passphrase 9\n", hash))
+      << "the line end is not part of it";
 
   const Cli short_one = cariesim("course hash", "short\n");
   EXPECT_EQ(short_one.status, 2);
@@ -59,8 +60,10 @@ TEST(CourseCli, CheckNamesTheProblemsPlace) {
   fs::create_directories(dir);
   const std::string hash =
       cariesim::training::hash_passphrase("lab passphrase 9", cariesim::training::kPassphraseMinIterations);
-  std::ofstream(dir / "good.yaml") << "course: C\nstudy: boundary-shapes\nrecords: r\nstation: s1\ninstructor: " << hash << "\n";
-  std::ofstream(dir / "bad.yaml") << "course: C\nstudy: boundary-shapes\nrecords: r\nstation: s 1\ninstructor: " << hash << "\n";
+  std::ofstream(dir / "good.yaml")
+      << "course: C\nstudy: boundary-shapes\nrecords: r\nstation: s1\ninstructor: " << hash << "\n";
+  std::ofstream(dir / "bad.yaml")
+      << "course: C\nstudy: boundary-shapes\nrecords: r\nstation: s 1\ninstructor: " << hash << "\n";
   const Cli good = cariesim("course check '" + (dir / "good.yaml").string() + "'", "");
   ASSERT_EQ(good.status, 0) << good.err;
   EXPECT_THAT(good.out, HasSubstr("boundary-shapes (built-in): boundary-shapes, 10 trials"));

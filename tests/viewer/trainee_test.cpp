@@ -1,11 +1,12 @@
 // Trainee mode's parts without a window (apps/viewer/trainee.hpp): what a trainee's view draws, the
 // instructor's lock, and the window script's parser.
+#include "viewer/trainee.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/course.hpp"
-#include "viewer/trainee.hpp"
 
 namespace {
 
@@ -59,8 +60,8 @@ TEST(InstructorLock, WithoutAHashNothingUnlocks) {
 }
 
 TEST(WindowScript, ParsesStepsAndNamesBadLines) {
-  const auto steps = parse_script(
-      "# comment\n\n0.5 key L\n1 passphrase two words here\n1.5 lock\n2 key Enter\n", "s.txt");
+  const auto steps =
+      parse_script("# comment\n\n0.5 key L\n1 passphrase two words here\n1.5 lock\n2 key Enter\n", "s.txt");
   ASSERT_EQ(steps.size(), 4u);
   EXPECT_EQ(steps[0].action, "key");
   EXPECT_EQ(steps[0].argument, "L");

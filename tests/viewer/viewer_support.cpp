@@ -47,8 +47,8 @@ Image load_png(const fs::path& file) {
 
 std::string json_query(const fs::path& json, const std::string& expression) {
   const fs::path script = json.string() + ".query.py", result = json.string() + ".query.txt";
-  std::ofstream(script) << "import json, sys\nd = json.load(open(sys.argv[1]))\ntry:\n    print(" << expression
-                        << ")\nexcept Exception as e:\n    print('<error: %r>' % e)\n";
+  std::ofstream(script) << "import json, sys\nd = json.load(open(sys.argv[1]))\ntry:\n    print("
+                        << expression << ")\nexcept Exception as e:\n    print('<error: %r>' % e)\n";
   shell("python3 '" + script.string() + "' '" + json.string() + "' >'" + result.string() + "' 2>&1");
   std::string text = read_text(result);
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();

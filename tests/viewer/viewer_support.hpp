@@ -1,11 +1,11 @@
 #pragma once
 // What the viewer's Xvfb tests share: running `cariesim` under xvfb-run, the artefacts folder, the
 // PNG screenshots, and queries of the status files.
+#include <stb/stb_image.h>
+
 #include <filesystem>
 #include <memory>
 #include <string>
-
-#include <stb/stb_image.h>
 
 namespace cariesim::test {
 

@@ -30,9 +30,9 @@ inline constexpr std::size_t kPassphraseMinLength = 8;
 
 /// A decoded `pbkdf2-sha256$ITER$SALT$HASH`.
 struct PassphraseHash {
-  int iterations = 0;                ///< PBKDF2 iteration count
-  std::vector<unsigned char> salt;   ///< random salt, at least 8 bytes
-  std::vector<unsigned char> hash;   ///< derived key, 32 bytes
+  int iterations = 0;               ///< PBKDF2 iteration count
+  std::vector<unsigned char> salt;  ///< random salt, at least 8 bytes
+  std::vector<unsigned char> hash;  ///< derived key, 32 bytes
 };
 
 /// Decodes a stored hash; throws cariesim::Error saying which part is wrong (scheme, iteration
@@ -49,16 +49,16 @@ bool verify_passphrase(std::string_view passphrase, std::string_view encoded);
 
 /// A parsed course file.
 struct Course {
-  std::filesystem::path file;      ///< the course file (messages name it)
-  std::string name;                ///< the course's name, shown to the trainee
+  std::filesystem::path file;  ///< the course file (messages name it)
+  std::string name;            ///< the course's name, shown to the trainee
   /// The study to run: a built-in study name as written, or a study file's path resolved against
   /// the course file's folder (`study_is_file`)
   std::string study;
-  bool study_is_file = false;       ///< `study` is a file path (it ends in .yaml/.yml or has a '/')
-  std::filesystem::path records;    ///< folder of the study databases, resolved against the course file's
-  std::string station;              ///< this station's name (letters, digits, '.', '_', '-')
+  bool study_is_file = false;     ///< `study` is a file path (it ends in .yaml/.yml or has a '/')
+  std::filesystem::path records;  ///< folder of the study databases, resolved against the course file's
+  std::string station;            ///< this station's name (letters, digits, '.', '_', '-')
   std::vector<std::string> participants;  ///< participant IDs allowed; empty: any valid ID
-  std::string instructor_hash;      ///< the instructor passphrase's hash (stored format above)
+  std::string instructor_hash;            ///< the instructor passphrase's hash (stored format above)
 
   /// The study database this station writes: records/STATION.db.
   [[nodiscard]] std::filesystem::path database() const;
