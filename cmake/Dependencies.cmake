@@ -11,6 +11,8 @@ find_package(Threads REQUIRED)
 find_package(Boost 1.74 REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(SQLITE3 REQUIRED IMPORTED_TARGET sqlite3)
+# OpenSSL's libcrypto: PBKDF2-HMAC-SHA256 for the course file's instructor passphrase (training module).
+find_package(OpenSSL REQUIRED COMPONENTS Crypto)
 
 # OpenVDB 10 on bookworm: link directly (its CMake module needs Blosc/Boost components we do not use).
 find_path(OPENVDB_INCLUDE_DIR openvdb/openvdb.h REQUIRED)

@@ -11,7 +11,8 @@ void register_tree(CLI::App& app, Registry& registry);
 void register_servo(CLI::App& app, Registry& registry);
 void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
-void register_study(CLI::App& app, Registry& registry);  // study_command.cpp
+void register_study(CLI::App& app, Registry& registry);   // study_command.cpp
+void register_course(CLI::App& app, Registry& registry);  // course_command.cpp
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -29,6 +30,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_scene(app, registry);
   register_export(app, registry);
   register_study(app, registry);
+  register_course(app, registry);
 }
 
 }  // namespace cariesim::cli

@@ -1,8 +1,10 @@
 // `cariesim run` (and `cariesim` with no subcommand), DESIGN.md §5-6: the simulator window on a
 // scene with a device, the servo loop on its own thread, optionally a session record; for automation
 // a screenshot after some seconds of servo time. docs/viewer.md describes the window.
+#include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +32,10 @@ struct RunArgs {
   bool no_realtime = false;
   std::string view;                  // camera preset; empty: the whole scene framed
   std::vector<int> size{1280, 800};  // px, the window's width and height
+  bool trainee = false;
+  std::string course, participant, station, script, answers;
+  int trials = 0;  // 0: the study's count
+  std::optional<uint64_t> seed;
 };
 
 int run_simulator(const RunArgs& args) {
@@ -52,6 +58,14 @@ int run_simulator(const RunArgs& args) {
   options.view = args.view;
   options.width = args.size[0];
   options.height = args.size[1];
+  options.trainee = args.trainee;
+  options.course = args.course;
+  options.participant = args.participant;
+  options.station = args.station;
+  options.script = args.script;
+  options.answers = args.answers;
+  if (args.trials > 0) options.trials = args.trials;
+  options.seed = args.seed;
   return viewer::run_viewer(options);
 #else
   (void)args;
@@ -80,7 +94,29 @@ void register_run(CLI::App& app, Registry& registry) {
   sub->add_option("--screenshot", args->screenshot,
                   "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
       ->needs(exit_after);
-  sub->add_flag("--show-lesions", args->show_lesions, "Start with the lesions revealed (hidden by default)");
+  auto* show = sub->add_flag("--show-lesions", args->show_lesions,
+                             "Start with the lesions revealed (hidden by default)");
+  auto* trainee = sub->add_flag("--trainee", args->trainee,
+                                "Trainee mode: nothing on screen shows a lesion (no lesion panel, readouts, "
+                                "overlays or reveal key)");
+  auto* course = sub->add_option("--course", args->course,
+                                 "Course file: trainee mode running its study (docs/instructors.md)");
+  sub->add_option("--participant", args->participant, "Participant ID for the course's study (else asked)")
+      ->needs(course);
+  sub->add_option("--station", args->station, "This station's name (overrides the course file's)")
+      ->needs(course);
+  sub->add_option("--answers", args->answers,
+                  "Answers file that plays the participant (the format of `cariesim study run --answers`)")
+      ->needs(course);
+  sub->add_option("--trials", args->trials, "Override the course study's trial count")
+      ->check(CLI::Range(1, 1000))
+      ->needs(course);
+  sub->add_option("--seed", args->seed, "The course study's seed (default: the study file's, else drawn)")
+      ->needs(course);
+  sub->add_option("--script", args->script,
+                  "Window script for automation: timed key presses and passphrases (docs/viewer.md)");
+  show->excludes(trainee)->excludes(course);
+  course->excludes(record);  // a course's trials record themselves
   sub->add_option("--size", args->size, "Window width and height in pixels (the window can be resized)")
       ->expected(2)
       ->check(CLI::Range(320, 8192))

@@ -69,12 +69,25 @@ void ViewerApp::draw_panel() {
   panel_.w = size.x;
   panel_.h = size.y;
   ImGui::PushItemWidth(-150.0f);
-  panel_scene();
-  if (session_) {
-    panel_status();
-    panel_plots();
-    panel_view();
-    panel_lesion();
+  sections_.clear();
+  if (locked()) {
+    // A trainee: the course and its study, the camera; the instructor's passphrase field.
+    panel_trainee();
+    if (course_ && section("Study")) panel_study();
+    if (session_ && section("View")) panel_camera();
+    panel_instructor();
+  } else {
+    if (trainee_) panel_trainee();
+    if (course_ && section("Study")) panel_study();
+    // A course's scenes are its study's: no scene picker.
+    if (!course_) panel_scene();
+    if (session_) {
+      panel_status();
+      panel_plots();
+      panel_view();
+      panel_lesion();
+    }
+    if (trainee_) panel_instructor();
   }
   ImGui::PopItemWidth();
   if (!panel_.message.empty()) {
@@ -103,14 +116,20 @@ void ViewerApp::draw_build_progress() {
     const std::lock_guard lock(build_->mutex);
     stage = build_->stage;
   }
-  ImGui::Text("Building %s", build_->source.c_str());
-  ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f), stage.c_str());
+  // A trainee is not told which scene comes (its name may say where the lesions are).
+  if (locked())
+    ImGui::Text("Preparing the scene");
+  else
+    ImGui::Text("Building %s", build_->source.c_str());
+  // A trainee sees no stage names (they name the lesion parts).
+  ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f),
+                     locked() ? nullptr : stage.c_str());
   if (session_) ImGui::TextDisabled("The current scene keeps running until the new one is ready.");
   ImGui::End();
 }
 
 void ViewerApp::panel_scene() {
-  if (!ImGui::CollapsingHeader("Scene", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (!section("Scene")) return;
   ImGui::Text("%s", session_ ? session_->source.c_str() : "(building)");
   // Built-in scenes, and scene files by path; both rebuild the model on a worker thread.
   const std::vector<std::string> names = builtin_scene_names();
@@ -137,7 +156,7 @@ void ViewerApp::panel_scene() {
 }
 
 void ViewerApp::panel_status() {
-  if (!ImGui::CollapsingHeader("Status", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (!section("Status")) return;
   const StepOutput& out = snapshot_.out;
   SceneSession& s = *session_;
   const DeviceInfo& device = s.run->device_info();
@@ -204,7 +223,7 @@ void ViewerApp::panel_status() {
 }
 
 void ViewerApp::panel_plots() {
-  if (!ImGui::CollapsingHeader("Force and torque", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (!section("Force and torque")) return;
   // The last seconds of snapshots on a uniform grid.
   constexpr int kPoints = 240;
   const auto plot = [&](ForceHistory::Series series, const char* label, const char* unit, bool symmetric,
@@ -229,7 +248,7 @@ void ViewerApp::panel_plots() {
 }
 
 void ViewerApp::panel_view() {
-  if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (!section("View")) return;
   ImGui::Checkbox("reveal lesions (L)", &settings_.show_lesions);
   ImGui::SameLine();
   ImGui::Checkbox("haptic ghost", &settings_.haptic_ghost);
@@ -259,6 +278,10 @@ void ViewerApp::panel_view() {
       ImGui::EndCombo();
     }
   }
+  panel_camera();
+}
+
+void ViewerApp::panel_camera() {
   if (ImGui::Button("Frame scene (F)")) {
     camera_.frame(session_->view->bounds());
     preset_.reset();
@@ -273,14 +296,54 @@ void ViewerApp::panel_view() {
     if (ImGui::Button(label.c_str())) apply_preset(kPresets[k]);
   }
   ImGui::Checkbox("follow the tip (T)", &follow_tip_);
-  ImGui::SameLine();
-  ImGui::Checkbox("tip over everything", &settings_.tip_xray);
+  if (!locked()) {
+    ImGui::SameLine();
+    ImGui::Checkbox("tip over everything", &settings_.tip_xray);
+  }
   ImGui::TextDisabled("left-drag move, wheel depth (shift: fine), right-drag turn;");
   ImGui::TextDisabled("middle- or alt-drag orbit, ctrl+wheel zoom");
 }
 
+bool ViewerApp::section(const char* name) {
+  sections_.emplace_back(name);
+  return ImGui::CollapsingHeader(name, ImGuiTreeNodeFlags_DefaultOpen);
+}
+
+void ViewerApp::panel_trainee() {
+  if (!section("Trainee")) return;
+  // The course and this station; without a course, free practice.
+  if (course_) {
+    ImGui::TextWrapped("%s", course_->name.c_str());
+    ImGui::Text("station %s", course_->station.c_str());
+  } else {
+    ImGui::TextWrapped("Trainee mode: explore the scene with the explorer.");
+  }
+}
+
+void ViewerApp::panel_instructor() {
+  if (!section("Instructor")) return;
+  // Unlocked: a button locks again. Locked: the passphrase field (hidden characters).
+  if (lock_.unlocked()) {
+    ImGui::TextWrapped("The full panel is open: lesions, states and overlays are visible.");
+    if (ImGui::Button("Lock (back to trainee mode)")) lock_.lock();
+    return;
+  }
+  if (!lock_.can_unlock()) {
+    ImGui::TextDisabled("No instructor passphrase: run with --course to allow unlocking.");
+    return;
+  }
+  const bool enter = ImGui::InputText("passphrase", &passphrase_input_,
+                                      ImGuiInputTextFlags_Password | ImGuiInputTextFlags_EnterReturnsTrue);
+  ImGui::SameLine();
+  if ((ImGui::Button("Unlock") || enter) && !passphrase_input_.empty()) {
+    submit_passphrase(passphrase_input_);
+    passphrase_input_.clear();
+  }
+  if (!lock_message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", lock_message_.c_str());
+}
+
 void ViewerApp::panel_lesion() {
-  if (!ImGui::CollapsingHeader("Lesion parameters", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (!section("Lesion parameters")) return;
   SceneSession& s = *session_;
   if (s.model->lesions.empty()) {
     ImGui::TextDisabled("this scene has no lesions");
@@ -366,17 +429,38 @@ std::string ViewerApp::status_json(int width, int height) const {
   const StepOutput& out = snapshot_.out;
   JsonWriter json;
   json.begin_object();
-  json.field("scene", session_ ? session_->source : std::string());
+  // The mode: a trainee's window (locked), the instructor's unlocked one, or the ordinary window.
+  json.field("mode", locked() ? "trainee" : trainee_ ? "instructor" : "full");
   json.field("device", options_.device);
-  json.field("state", state_name(out.state));
-  json.key("force").begin_array().value(out.force.x()).value(out.force.y()).value(out.force.z()).end_array();
-  json.field("force_norm", out.force.norm());
-  json.field("rendered_force_norm", snapshot_.force.norm());
-  json.field("torque_norm", out.torque.norm());
-  json.field("depth", out.depth);
-  json.field("contacts", out.contacts);
   json.field("t", snapshot_.t);
-  json.field("lesions_shown", settings_.show_lesions);
+  json.key("panel_sections").begin_array();
+  for (const std::string& name : sections_) json.value(name);
+  json.end_array();
+  study_json(json);
+  if (trainee_) {
+    json.key("instructor").begin_object();
+    json.field("can_unlock", lock_.can_unlock());
+    json.field("unlocked", lock_.unlocked());
+    json.field("refused", lock_.refused());
+    json.end_object();
+  }
+  // The scene and the engine's readouts: not in a trainee's file (they would name or locate lesions).
+  if (!locked()) {
+    json.field("scene", session_ ? session_->source : std::string());
+    json.field("state", state_name(out.state));
+    json.key("force")
+        .begin_array()
+        .value(out.force.x())
+        .value(out.force.y())
+        .value(out.force.z())
+        .end_array();
+    json.field("force_norm", out.force.norm());
+    json.field("rendered_force_norm", snapshot_.force.norm());
+    json.field("torque_norm", out.torque.norm());
+    json.field("depth", out.depth);
+    json.field("contacts", out.contacts);
+    json.field("lesions_shown", settings_.show_lesions);
+  }
   json.key("timing").begin_object();
   json.field("cycles", static_cast<long long>(timing_.cycles));
   json.field("overruns", static_cast<long long>(timing_.overruns));
@@ -425,7 +509,11 @@ std::string ViewerApp::status_json(int width, int height) const {
       if (pixel(out.graphic.transform(local), px)) json.begin_array().value(px.x()).value(px.y()).end_array();
   json.end_array();
 
-  // The object the strongest contact touches, and the colour it is drawn in.
+  // The object the strongest contact touches, and the colour it is drawn in (not for a trainee).
+  if (locked()) {
+    json.end_object();
+    return json.str();
+  }
   json.key("touched");
   const int count = std::clamp(out.contact_report_count, 0, kMaxReportedContacts);
   const ContactReport* strongest = nullptr;
@@ -436,9 +524,9 @@ std::string ViewerApp::status_json(int width, int height) const {
     const int object = strongest->object;
     json.begin_object();
     json.field("object", session_->model->objects[object].name);
-    json.field("tissue", tissue_name(session_->view->object_display_tissue(object, settings_)));
+    json.field("tissue", tissue_name(session_->view->object_display_tissue(object, shown_settings())));
     json.key("color");
-    json_rgb(json, session_->view->object_color(object, settings_));
+    json_rgb(json, session_->view->object_color(object, shown_settings()));
     json.field("force", strongest->force);
     json.end_object();
   } else {

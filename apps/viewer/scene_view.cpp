@@ -89,7 +89,13 @@ SceneView::SceneView(const Model& model) : model_(model) {
     p.soft =
         part.object >= 0 && static_cast<std::size_t>(part.object) < n && soft_stiffness_[part.object] > 0.0;
     if (p.soft) p.base = part.mesh.vertices;
-    bounds_.extend(part.mesh.bounds());
+    // The bounds of what is drawn with the lesions hidden: an object that lesions cut by its uncut
+    // surface (its parts' surfaces differ from it by a lesion's shape, so framing on them would move
+    // the camera by where the lesions are).
+    if (p.has_whole)
+      bounds_.extend(part.whole.bounds());
+    else if (!p.cut)
+      bounds_.extend(part.mesh.bounds());
     parts_.push_back(std::move(p));
   }
   tool_mesh_ = GlMesh(model.tool.display);

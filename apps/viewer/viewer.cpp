@@ -18,6 +18,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/servo/device_factory.hpp"
+#include "cariesim/training/course.hpp"
 #include "screenshot.hpp"
 #include "viewer_app.hpp"
 
@@ -75,6 +76,31 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
   if (options_.device != "mouse") (void)make_device(options_.device);
   settings_.show_lesions = options_.show_lesions;
+
+  // Trainee mode: with a course, its instructor's passphrase opens the full panel; the lesions start
+  // hidden whatever was asked.
+  trainee_ = options_.trainee || !options_.course.empty();
+  if (!options_.course.empty()) {
+    course_ = training::load_course(options_.course);
+    if (!options_.station.empty()) {
+      if (!training::valid_identifier(options_.station))
+        throw Error("station '" + options_.station + "': not a valid name (letters, digits, '.', '_', '-')");
+      course_->station = options_.station;
+    }
+    if (!options_.participant.empty() && !course_->allows(options_.participant))
+      throw Error("participant '" + options_.participant + "': not a valid ID" +
+                  (course_->participants.empty() ? "" : " on the course's list (" + options_.course + ")"));
+    lock_ = InstructorLock(course_->instructor_hash);
+    // The study, and the answers file that may play the participant, checked before the window opens.
+    try {
+      study_ = training::load_study(course_->study);
+    } catch (const Error& e) {
+      throw Error(options_.course + ": study '" + course_->study + "': " + e.what());
+    }
+    if (!options_.answers.empty()) answers_ = training::load_answers(options_.answers);
+  }
+  if (trainee_) settings_.show_lesions = false;
+  if (!options_.script.empty()) script_ = load_script(options_.script);
   if (!options_.view.empty()) {
     CameraPreset preset;
     if (!parse_preset(options_.view, preset))
@@ -127,13 +153,19 @@ void ViewerApp::open_window() {
 }
 
 void ViewerApp::request_build(const std::string& source) {
+  request_build(
+      source, [source] { return load_scene(source); }, false);
+}
+
+void ViewerApp::request_build(const std::string& label, std::function<SceneDesc()> load, bool trial) {
   // Parse and build on a worker thread; progress goes to the panel.
   build_error_.clear();
   build_ = std::make_unique<PendingBuild>();
-  build_->source = source;
+  build_->source = label;
+  build_->trial = trial;
   PendingBuild* pending = build_.get();
-  pending->result = std::async(std::launch::async, [pending, source] {
-    const SceneDesc desc = load_scene(source);
+  pending->result = std::async(std::launch::async, [pending, load = std::move(load)] {
+    const SceneDesc desc = load();
     BuildOptions build;
     build.progress = [pending](std::string_view stage, double fraction) {
       const std::lock_guard lock(pending->mutex);
@@ -142,7 +174,7 @@ void ViewerApp::request_build(const std::string& source) {
     };
     return std::make_unique<Model>(build_model(desc, build));
   });
-  std::fprintf(stderr, "run: building %s\n", source.c_str());
+  std::fprintf(stderr, "run: building %s\n", label.c_str());
 }
 
 void ViewerApp::poll_build() {
@@ -153,14 +185,26 @@ void ViewerApp::poll_build() {
     std::unique_ptr<Model> model = done->result.get();
     std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
                  model->objects.size());
-    start_session(std::move(model), done->source);
+    start_session(std::move(model), done->source, done->trial);
   } catch (const Error& e) {
+    // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
+    // ended_at NULL); otherwise the first scene's failure is fatal.
+    if (done->trial && run_) {
+      // The reason may name the trial's hidden parts: a trainee is only told to call the instructor.
+      study_message_ = locked() ? std::string("This trial could not start; please call the instructor.")
+                                : std::string("This trial could not start: ") + e.what();
+      study_message_is_error_ = true;
+      std::fprintf(stderr, "run: trial %d could not start: %s\n", run_->current_trial() + 1, e.what());
+      run_->abandon_trial();
+      if (!run_->finished()) begin_trial();
+      return;
+    }
     if (!session_) throw;
     build_error_ = e.what();
   }
 }
 
-void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source) {
+void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& source, bool trial) {
   // The old loop stops first; its view holds GL objects, freed here on the render thread.
   const bool same_scene = session_ && session_->source == source;
   if (session_) session_->stop();
@@ -176,7 +220,15 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   session_options.device = options_.device;
   session_options.rate_hz = options_.rate_hz;
   session_options.realtime = options_.realtime;
-  if (!options_.record.empty() && !record_used_) {
+  if (trial && run_) {
+    // A study trial records itself where the run says; an answers entry may give its own device.
+    session_options.record = run_->recording_path().string();
+    if (answers_ && !answers_->trials.empty()) {
+      const auto& entries = answers_->trials;
+      const auto& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
+      if (!entry.device.empty()) session_options.device = entry.device;
+    }
+  } else if (!options_.record.empty() && !record_used_) {
     session_options.record = options_.record;
     session_options.recorder.overwrite = options_.overwrite;
     record_used_ = true;
@@ -184,7 +236,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     panel_.message = "The record ended with the previous scene (" + options_.record + ").";
     panel_.message_is_error = false;
   }
-  if (options_.device == "mouse")
+  if (session_options.device == "mouse")
     s->run = std::make_unique<Session>(
         *s->model, std::make_unique<MouseDevice>(s->model->tool_home, s->model->defaults.limits),
         session_options);
@@ -208,6 +260,18 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   history_.clear();
   timing_ = TimingReport{};
   timing_refreshed_ = std::chrono::steady_clock::now();
+  // A trial's panel starts over: sliders at their drawn start (sent to the servo thread), no shape
+  // named, the device's buttons as they are.
+  if (trial && run_) {
+    previous_buttons_ = 0;
+    device_seen_valid_ = false;
+    answer_mark_next_ = 0;
+    shape_choice_.assign(run_->setup().cubes.size(), -1);
+    tuned_lesion_ = -1;
+    for (std::size_t i = 0; i < session_->model->lesions.size(); ++i)
+      if (session_->model->lesions[i].name == run_->setup().tuned_lesion) tuned_lesion_ = static_cast<int>(i);
+    reset_tuning_sliders();
+  }
 }
 
 void ViewerApp::restart_servo() {
@@ -249,13 +313,53 @@ void ViewerApp::handle_input() {
     if (ImGui::IsKeyPressed(GLFW_KEY_R, false) && session_ && session_->run->recorder() == nullptr)
       restart_servo();
     if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
-    if (ImGui::IsKeyPressed(GLFW_KEY_L, false)) settings_.show_lesions = !settings_.show_lesions;
+    // A trainee has no reveal key.
+    if (ImGui::IsKeyPressed(GLFW_KEY_L, false) && !locked()) settings_.show_lesions = !settings_.show_lesions;
     // 1-4: the clinician's views on the explorer's tip; T: the camera follows the tip.
     constexpr CameraPreset kKeys[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
                                       CameraPreset::Operator};
     for (int k = 0; k < 4; ++k)
       if (ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)) apply_preset(kKeys[k]);
     if (ImGui::IsKeyPressed(GLFW_KEY_T, false)) follow_tip_ = !follow_tip_;
+    // M: a diagnosis mark at the tip.
+    if (ImGui::IsKeyPressed(GLFW_KEY_M, false)) study_mark();
+  }
+}
+
+ViewSettings ViewerApp::shown_settings() const { return locked() ? trainee_settings(settings_) : settings_; }
+
+void ViewerApp::submit_passphrase(const std::string& passphrase) {
+  // Right: the full panel opens; wrong: refused, counted, and said so.
+  if (lock_.try_unlock(passphrase)) {
+    lock_message_.clear();
+    std::fprintf(stderr, "run: instructor unlocked the full panel\n");
+  } else {
+    lock_message_ = lock_.can_unlock()
+                        ? fmt::format("Wrong passphrase ({} refused).", lock_.refused())
+                        : std::string("This window has no instructor passphrase (no course file).");
+    std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+  }
+}
+
+void ViewerApp::run_script() {
+  // Before the frame starts: release the key pressed in the last frame, then every step whose time
+  // (servo time of the running session) has come, as the keyboard or the panel would do it.
+  ImGuiIO& io = ImGui::GetIO();
+  if (script_key_down_ >= 0) io.KeysDown[script_key_down_] = false;
+  script_key_down_ = -1;
+  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t) {
+    const ScriptStep& step = script_[script_next_];
+    if (step.action == "key") {
+      // One key a frame, so that each press is seen.
+      if (script_key_down_ >= 0) break;
+      script_key_down_ = script_key_code(step.argument);
+      io.KeysDown[script_key_down_] = true;
+    } else if (step.action == "passphrase") {
+      submit_passphrase(step.argument);
+    } else if (step.action == "lock") {
+      lock_.lock();
+    }
+    ++script_next_;
   }
 }
 
@@ -305,16 +409,21 @@ void ViewerApp::draw_scene(int width, int height) {
   renderer_->begin(frame);
   std::optional<Pose> recorded;
   if (session_->replay != nullptr) recorded = session_->replay->recorded_graphic(snapshot_.t);
-  session_->view->draw(*renderer_, snapshot_, settings_, recorded);
+  session_->view->draw(*renderer_, snapshot_, shown_settings(), recorded);
   glViewport(0, 0, width, height);
 }
 
 int ViewerApp::run() {
   open_window();
-  request_build(options_.scene);
+  // A course starts its study once the participant is known (given, or typed in the panel).
+  if (!course_)
+    request_build(options_.scene);
+  else if (!options_.participant.empty())
+    start_study(options_.participant);
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
+    run_script();
     poll_build();
 
     // One frame: input, the newest snapshot, the scene, the panel.
@@ -323,6 +432,7 @@ int ViewerApp::run() {
     ImGui::NewFrame();
     handle_input();
     read_snapshot();
+    study_frame();
     int width = 0, height = 0;
     glfwGetFramebufferSize(window_, &width, &height);
     draw_scene(width, height);
@@ -332,7 +442,9 @@ int ViewerApp::run() {
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
     // Automation: once the servo clock passes exit_after, keep this frame and leave.
-    if (options_.exit_after > 0.0 && have_snapshot_ && snapshot_.t >= options_.exit_after) {
+    // A course's study also ends the run once its last trial has ended.
+    if (options_.exit_after > 0.0 &&
+        ((have_snapshot_ && snapshot_.t >= options_.exit_after) || (study_finished() && !build_))) {
       finish(width, height);
       break;
     }
@@ -364,12 +476,18 @@ void ViewerApp::print_summary() const {
   // What the UI showed last, and the servo loop's timing (TimingReport).
   if (!session_) return;
   const StepOutput& out = snapshot_.out;
-  std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(), options_.device.c_str(),
-              session_->run->rate_hz());
-  std::printf(
-      "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
-      state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
-      out.contacts, snapshot_.t);
+  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view).
+  if (locked()) {
+    std::printf("run: trainee mode, device %s, %.0f Hz servo, t %.3f s\n", options_.device.c_str(),
+                session_->run->rate_hz(), snapshot_.t);
+  } else {
+    std::printf("run: scene %s, device %s, %.0f Hz servo\n", session_->source.c_str(),
+                options_.device.c_str(), session_->run->rate_hz());
+    std::printf(
+        "state %s, force %.3f N (rendered %.3f N), torque %.2f N*mm, depth %.3f mm, contacts %d, t %.3f s\n",
+        state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
+        out.contacts, snapshot_.t);
+  }
   std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),

@@ -3,6 +3,8 @@
 /// Dear ImGui, the servo loop on its own thread, a device (the mouse by default), optionally a
 /// session record. docs/viewer.md describes what the user sees and the controls.
 
+#include <cstdint>
+#include <optional>
 #include <string>
 
 namespace cariesim::viewer {
@@ -22,6 +24,19 @@ struct ViewerOptions {
   /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);
   /// empty: the whole scene framed
   std::string view;
+  /// Trainee mode (docs/instructors.md): nothing on screen gives a lesion away (no lesion colour or
+  /// panel, no state or depth readout, no overlays, no reveal key); a course implies it
+  bool trainee = false;
+  std::string course;       ///< course file: trainee mode running the course's study; empty: none
+  std::string participant;  ///< participant ID for the course's study; empty: asked in the window
+  std::string station;      ///< overrides the course file's station name; empty: the course's
+  /// Answers file that plays the participant of the course's study (the format of `cariesim study
+  /// run --answers`, docs/training.md); empty: the participant answers in the panel
+  std::string answers;
+  std::optional<int> trials;     ///< overrides the course study's trial count
+  std::optional<uint64_t> seed;  ///< the course study's seed; unset: the study file's, else drawn
+  /// Window script for automation (docs/viewer.md): timed key presses and passphrases; empty: none
+  std::string script;
 };
 
 /// True when a window system is reachable (DISPLAY or WAYLAND_DISPLAY is set).

@@ -5,7 +5,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -17,13 +19,22 @@
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
+#include "cariesim/training/course.hpp"
+#include "cariesim/training/headless.hpp"
+#include "cariesim/training/run.hpp"
+#include "cariesim/training/study.hpp"
 #include "force_history.hpp"
 #include "gl_renderer.hpp"
 #include "mouse_device.hpp"
 #include "scene_view.hpp"
+#include "trainee.hpp"
 #include "viewer.hpp"
 
 struct GLFWwindow;
+
+namespace cariesim {
+class JsonWriter;
+}
 
 namespace cariesim::viewer {
 
@@ -45,6 +56,7 @@ struct SceneSession {
 /// A scene being built on a worker thread.
 struct PendingBuild {
   std::string source;
+  bool trial = false;  ///< the scene of the course study's current trial (its session records the trial)
   std::future<std::unique_ptr<Model>> result;
   std::mutex mutex;  // guards `stage` (worker and UI thread; never the servo thread)
   std::string stage;
@@ -78,8 +90,10 @@ class ViewerApp {
   void open_window();
   // Sessions (viewer.cpp).
   void request_build(const std::string& source);
+  /// Builds a scene that `load` describes (on the worker thread); `label` names it in messages.
+  void request_build(const std::string& label, std::function<SceneDesc()> load, bool trial);
   void poll_build();
-  void start_session(std::unique_ptr<Model> model, const std::string& source);
+  void start_session(std::unique_ptr<Model> model, const std::string& source, bool trial = false);
   void restart_servo();
   // Frame work (viewer.cpp).
   void handle_input();
@@ -95,6 +109,11 @@ class ViewerApp {
   void panel_plots();
   void panel_view();
   void panel_lesion();
+  void panel_camera();
+  void panel_trainee();
+  void panel_instructor();
+  /// A collapsing section of the panel, open by default; its name is noted for the status file.
+  bool section(const char* name);
   void post(const ParamChange& change);
   void save_scene();
   [[nodiscard]] std::string status_json(int width, int height) const;
@@ -125,6 +144,57 @@ class ViewerApp {
   std::optional<CameraPreset> pending_preset_;
   bool follow_tip_ = false;
   void apply_preset(CameraPreset preset);
+
+  // Trainee mode (trainee.hpp): on or not, the course, the instructor's lock, the panel's
+  // passphrase field and the outcome of the last attempt.
+  bool trainee_ = false;
+  std::optional<training::Course> course_;
+  InstructorLock lock_;
+  std::string passphrase_input_;
+  std::string lock_message_;
+  /// True while the window shows a trainee what a trainee may see.
+  [[nodiscard]] bool locked() const { return trainee_ && !lock_.unlocked(); }
+  /// What the scene is drawn with: the panel's settings, or trainee_settings() of them when locked.
+  [[nodiscard]] ViewSettings shown_settings() const;
+  void submit_passphrase(const std::string& passphrase);
+  std::vector<std::string> sections_;  // the panel's sections drawn in the last frame
+
+  // The course's study (study_panel.cpp): the study and its run for the participant, what the panel
+  // holds for the current trial (tuning sliders, shapes named, the grade of the next mark), the
+  // answers file that plays the participant (--answers), the trials ended.
+  std::optional<training::Study> study_;
+  std::unique_ptr<training::StudyRun> run_;
+  std::string participant_input_;
+  std::string study_message_;
+  bool study_message_is_error_ = false;
+  std::map<std::string, double> tuning_values_;  // parameter name -> slider value (its unit)
+  int tuned_lesion_ = -1;                        // the model's lesion the sliders change
+  std::vector<int> shape_choice_;                // per cube: index into shape_choices, -1: not named
+  int grade_choice_ = 0;                         // the next mark's grade: 0 mild, 1 severe
+  uint32_t previous_buttons_ = 0;                // device buttons in the last snapshot
+  bool device_seen_valid_ = false;               // the trial's device gave a valid reading
+  std::optional<training::ScriptedAnswers> answers_;
+  std::size_t answer_mark_next_ = 0;
+  std::vector<training::TrialResult> results_;
+  [[nodiscard]] bool study_finished() const { return run_ && run_->finished(); }
+  [[nodiscard]] bool trial_live() const;
+  void start_study(const std::string& participant);
+  void begin_trial();
+  void end_trial();
+  void study_frame();
+  void study_mark();
+  void reset_tuning_sliders();
+  void confirm_tuning();
+  void submit_shapes();
+  void play_answers();
+  void panel_study();
+  void study_json(JsonWriter& json) const;
+
+  // The window script (--script): its steps, the next one, a key it pressed in the last frame.
+  std::vector<ScriptStep> script_;
+  std::size_t script_next_ = 0;
+  int script_key_down_ = -1;
+  void run_script();
 };
 
 /// px, width of the panel docked at the window's right edge.

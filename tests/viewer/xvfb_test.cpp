@@ -5,8 +5,6 @@
 // stay in the build folder as artefacts: test-artifacts/viewer/<scene>.png (+ .json, .log).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <stb/stb_image.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,6 +20,7 @@
 
 #include "cariesim/scene/scene.hpp"
 #include "support/files.hpp"
+#include "viewer_support.hpp"
 
 namespace {
 
@@ -33,39 +32,14 @@ constexpr double kExitAfter = 4.0;
 
 using cariesim::test::read_text;
 
-fs::path artefacts() {
-  const fs::path dir = fs::path(CARIESIM_BINARY_DIR) / "test-artifacts" / "viewer";
-  fs::create_directories(dir);
-  return dir;
-}
+using cariesim::test::have_xvfb;
+using cariesim::test::Image;
+using cariesim::test::load_png;
+using cariesim::test::run_under_xvfb;
+using cariesim::test::RunResult;
+using cariesim::test::shell;
 
-// Runs a shell command; returns its exit status (-1 when it did not exit).
-int shell(const std::string& command) {
-  const int raw = std::system(command.c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-}
-
-bool have_xvfb() { return shell("command -v xvfb-run >/dev/null 2>&1") == 0; }
-
-struct RunResult {
-  int status = -1;
-  std::string out, err;
-};
-
-// `cariesim ARGS` under xvfb-run with the shared test tree cache; generous time limit.
-RunResult run_under_xvfb(const std::string& args, const std::string& name) {
-  const fs::path dir = artefacts();
-  const fs::path out = dir / (name + ".out"), err = dir / (name + ".log");
-  const std::string command = "CARIESIM_CACHE_DIR='" +
-                              (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string() +
-                              "' timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' '" + CARIESIM_EXE + "' " +
-                              args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  RunResult r;
-  r.status = shell(command);
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
-}
+fs::path artefacts() { return cariesim::test::viewer_artefacts(); }
 
 // The status file flattened by Python's JSON parser into "key value..." lines.
 struct Status {
@@ -120,21 +94,6 @@ if t is not None:
     }
   }
   return s;
-}
-
-struct Image {
-  int w = 0, h = 0;
-  std::unique_ptr<unsigned char, void (*)(void*)> data{nullptr, stbi_image_free};
-  [[nodiscard]] const unsigned char* at(int x, int y) const {
-    return data.get() + 3 * (static_cast<std::size_t>(y) * w + x);
-  }
-};
-
-Image load_png(const fs::path& file) {
-  Image img;
-  int channels = 0;
-  img.data.reset(stbi_load(file.c_str(), &img.w, &img.h, &channels, 3));
-  return img;
 }
 
 double luminance(const unsigned char* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
