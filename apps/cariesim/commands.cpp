@@ -11,6 +11,7 @@ void register_tree(CLI::App& app, Registry& registry);
 void register_servo(CLI::App& app, Registry& registry);
 void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
+void register_report(CLI::App& app, Registry& registry);  // report_command.cpp
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -27,6 +28,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_tree(app, registry);
   register_scene(app, registry);
   register_export(app, registry);
+  register_report(app, registry);
 }
 
 }  // namespace cariesim::cli
