@@ -5,6 +5,7 @@ import csv, os, sys
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from matplotlib.ticker import MaxNLocator
 
 d = sys.argv[1]
 made = []
@@ -78,10 +79,10 @@ if boundary:
                   width=width, label=shape)
     right.set_xticks(range(len(names)))
     right.set_xticklabels(names, rotation=30, ha="right", fontsize=8)
-    right.set_ylim(0, 1.05)
+    right.set_ylim(0, 1.2)
     right.set_ylabel("share of trials named right")
     right.set_title("Per shape")
-    right.legend(fontsize=8)
+    right.legend(fontsize=8, ncol=len(shapes), loc="upper center")
     for ax in (left, right):
         ax.grid(axis="y", alpha=0.3)
     save(fig, "report-boundary.png")
@@ -129,6 +130,7 @@ if curve:
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", ms=3, lw=1, label=who)
         ax.set_title("%s: %s" % (kind, score.replace("_", " ")), fontsize=9)
         ax.set_xlabel("trial, in time order")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(panels):]:
