@@ -1,6 +1,8 @@
 // The tables of `cariesim report` (docs/reports.md) from merged study databases. Each participant's
 // values are the mean ± sample SD over their finished trials; the cohort row is the mean ± SD of the
 // participant means, as the paper's "Average" rows of Tables 1-2 and its boundary score 7.2 ± 1.69.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <map>
 #include <set>
@@ -126,6 +128,12 @@ ReportTable tuning_table(const Participants& people, const std::string& name, co
   return table;
 }
 
+// "F(1, 8) = 14.496, p = 0.00518", as the paper writes it, or the reason there is no F.
+std::string result_text(const Anova& a) {
+  if (!a.f || !a.p) return "F undefined";
+  return fmt::format("F({}, {}) = {:.3f}, p = {:.3g}", a.df1, a.df2, *a.f, *a.p);
+}
+
 // The one-way ANOVA between mild and severe per parameter, one observation per participant (their
 // mean), as the paper's F(1, 8) for five dentists (§4.1.2, §5.2).
 ReportTable anova_table(const Participants& people) {
@@ -147,8 +155,9 @@ ReportTable anova_table(const Participants& people) {
                    {"df1", "df1", 0},
                    {"df2", "df2", 0},
                    {"F", "F", 3},
-                   {"p", "p", 4},
+                   {"p", "p", -3},
                    {"significant", "p < 0.05", 0},
+                   {"result", "Result", 0},
                    {"note", "Note", 0}};
   const struct {
     std::string_view score;
@@ -167,7 +176,8 @@ ReportTable anova_table(const Participants& people) {
                           number(summarize(severe).mean), integer(mild.size()), integer(severe.size()),
                           real(a.ss_between), real(a.ss_within), integer(static_cast<std::size_t>(a.df1)),
                           integer(static_cast<std::size_t>(a.df2)), number(a.f), number(a.p),
-                          a.p ? text(*a.p < 0.05 ? "yes" : "no") : Cell{}, text(a.note)});
+                          a.p ? text(*a.p < 0.05 ? "yes" : "no") : Cell{}, text(result_text(a)),
+                          text(a.note)});
   }
   return table;
 }

@@ -171,7 +171,9 @@ std::string html_escape(std::string_view s) {
 std::string html_number(const Cell& cell, int decimals) {
   switch (cell.kind) {
     case Cell::Kind::Number:
-      return fmt::format("{:.{}f}", cell.number, decimals);
+      // decimals < 0: that many significant digits (p-values down to 1e-5 and below).
+      return decimals < 0 ? fmt::format("{:.{}g}", cell.number, -decimals)
+                          : fmt::format("{:.{}f}", cell.number, decimals);
     case Cell::Kind::Integer:
       return std::to_string(cell.integer);
     case Cell::Kind::Text:
@@ -197,7 +199,7 @@ std::string table_html(const ReportTable& table) {
     return ends_with(key, "_mean") && c + 1 < table.columns.size() &&
            table.columns[c + 1].key == key.substr(0, key.size() - 5) + "_sd";
   };
-  out += "<table>\n<thead><tr>";
+  out += "<div class=\"scroll\"><table>\n<thead><tr>";
   for (std::size_t c = 0; c < table.columns.size(); ++c) {
     out += "<th>" + html_escape(table.columns[c].header) + "</th>";
     if (pair_at(c)) ++c;
@@ -217,7 +219,7 @@ std::string table_html(const ReportTable& table) {
     }
     out += "</tr>\n";
   }
-  return out + "</tbody>\n</table>\n</section>\n";
+  return out + "</tbody>\n</table></div>\n</section>\n";
 }
 
 // Where each figure goes (after which table) and what it shows.
@@ -251,6 +253,7 @@ std::string report_html(const Report& report, const std::vector<fs::path>& figur
       "body{font-family:sans-serif;margin:2em;max-width:75em;color:#222}\n"
       "table{border-collapse:collapse;margin:0.5em 0 1.5em}\n"
       "th,td{border:1px solid #bbb;padding:0.25em 0.6em;text-align:right}\n"
+      "td{white-space:nowrap}\n.scroll{overflow-x:auto}\n"
       "th:first-child,td:first-child{text-align:left}\n"
       "thead th{background:#eef}\n"
       "tr.cohort td{font-weight:bold;background:#f6f6f6}\n"

@@ -85,7 +85,8 @@ struct Cell {
 struct Column {
   std::string key;     ///< CSV header and JSON key
   std::string header;  ///< HTML header
-  int decimals = 3;    ///< digits after the point in HTML (CSV and JSON keep full precision)
+  int decimals = 3;    ///< digits after the point in HTML, or significant digits when negative (CSV and
+                       ///< JSON keep full precision)
 };
 
 /// One table of the report, written as NAME.csv, under "NAME" in report.json and in report.html.
