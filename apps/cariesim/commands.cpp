@@ -13,6 +13,7 @@ void register_export(CLI::App& app, Registry& registry);
 void register_scene(CLI::App& app, Registry& registry);
 void register_study(CLI::App& app, Registry& registry);   // study_command.cpp
 void register_course(CLI::App& app, Registry& registry);  // course_command.cpp
+void register_report(CLI::App& app, Registry& registry);  // report_command.cpp
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -31,6 +32,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_export(app, registry);
   register_study(app, registry);
   register_course(app, registry);
+  register_report(app, registry);
 }
 
 }  // namespace cariesim::cli

@@ -1,0 +1,491 @@
+// The tables of `cariesim report` (docs/reports.md) from merged study databases. Each participant's
+// values are the mean ± sample SD over their finished trials; the cohort row is the mean ± SD of the
+// participant means, as the paper's "Average" rows of Tables 1-2 and its boundary score 7.2 ± 1.69.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <string>
+
+#include "cariesim/training/report.hpp"
+#include "cariesim/training/stats.hpp"
+#include "training/study_schema.hpp"
+
+namespace cariesim::training {
+
+namespace {
+
+constexpr const char* kCohort = "cohort";
+constexpr const char* kMild = "mild";
+constexpr const char* kSevere = "severe";
+
+Cell text(const std::string& s) { return Cell::of_text(s); }
+Cell integer(std::size_t n) { return Cell::of_integer(static_cast<std::int64_t>(n)); }
+Cell id(std::int64_t n) { return Cell::of_integer(n); }
+Cell real(double v) { return Cell::of_number(v); }
+Cell number(const std::optional<double>& v) { return v ? Cell::of_number(*v) : Cell{}; }
+
+// The finished trials of one participant, in time order (merge_study_databases sorts them so).
+using Participants = std::map<std::string, std::vector<const StudyTrial*>>;
+
+Participants by_participant(const std::vector<StudyTrial>& trials) {
+  Participants out;
+  for (const StudyTrial& t : trials) out[t.participant].push_back(&t);
+  return out;
+}
+
+// Every value of score `name` (and `level`, unless null) in `trials`.
+std::vector<double> values_of(const std::vector<const StudyTrial*>& trials, std::string_view name,
+                              const char* level) {
+  std::vector<double> out;
+  for (const StudyTrial* t : trials)
+    for (const TrialScore& s : t->scores)
+      if (s.name == name && (level == nullptr || s.level == level)) out.push_back(s.value);
+  return out;
+}
+
+// The trials that hold at least one of `names`.
+std::vector<const StudyTrial*> trials_with(const std::vector<const StudyTrial*>& trials,
+                                           const std::vector<std::string_view>& names) {
+  std::vector<const StudyTrial*> out;
+  for (const StudyTrial* t : trials) {
+    const bool has = std::any_of(t->scores.begin(), t->scores.end(), [&](const TrialScore& s) {
+      return std::find(names.begin(), names.end(), s.name) != names.end();
+    });
+    if (has) out.push_back(t);
+  }
+  return out;
+}
+
+// Sum of the values of score `name` over one trial (e.g. the shapes named right in it).
+std::optional<double> trial_sum(const StudyTrial& t, std::string_view name) {
+  std::optional<double> sum;
+  for (const TrialScore& s : t.scores)
+    if (s.name == name) sum = sum.value_or(0.0) + s.value;
+  return sum;
+}
+
+// Adds a KEY_mean / KEY_sd pair of columns.
+void add_mean_sd(ReportTable& table, const std::string& key, const std::string& header, int decimals) {
+  table.columns.push_back({key + "_mean", header, decimals});
+  table.columns.push_back({key + "_sd", header + " SD", decimals});
+}
+
+void put_summary(std::vector<Cell>& row, const Summary& s) {
+  row.push_back(number(s.mean));
+  row.push_back(number(s.sd));
+}
+
+// Collects, per column of mean/SD pairs, the participant means for the cohort row.
+struct CohortColumns {
+  std::vector<std::vector<double>> means;
+  explicit CohortColumns(std::size_t columns) : means(columns) {}
+  void add(std::size_t column, const Summary& s) {
+    if (s.mean) means[column].push_back(*s.mean);
+  }
+  Summary summary(std::size_t column) const { return summarize(means[column]); }
+};
+
+// Tables 1 and 2: per participant and level, mean ± SD of the tuned values of two parameters.
+ReportTable tuning_table(const Participants& people, const std::string& name, const std::string& title,
+                         const std::string& caption, std::string_view p1, const std::string& h1,
+                         std::string_view p2, const std::string& h2, int decimals) {
+  ReportTable table{name, title, caption, {}, {}};
+  table.columns.push_back({"participant", "Participant", 0});
+  table.columns.push_back({"trials", "Trials", 0});
+  const struct {
+    const char* level;
+    std::string_view score;
+    std::string header;
+  } cells[] = {{kMild, p1, "Mild " + h1},
+               {kMild, p2, "Mild " + h2},
+               {kSevere, p1, "Severe " + h1},
+               {kSevere, p2, "Severe " + h2}};
+  for (const auto& c : cells)
+    add_mean_sd(table, std::string(c.level) + "_" + std::string(c.score), c.header, decimals);
+
+  CohortColumns cohort(4);
+  std::size_t total = 0, participants = 0;
+  for (const auto& [who, trials] : people) {
+    const std::vector<const StudyTrial*> tuned = trials_with(trials, {p1, p2});
+    if (tuned.empty()) continue;
+    ++participants;
+    total += tuned.size();
+    std::vector<Cell> row{text(who), integer(tuned.size())};
+    for (std::size_t i = 0; i < 4; ++i) {
+      const Summary s = summarize(values_of(tuned, cells[i].score, cells[i].level));
+      cohort.add(i, s);
+      put_summary(row, s);
+    }
+    table.rows.push_back(std::move(row));
+  }
+  if (participants > 0) {
+    std::vector<Cell> row{text(kCohort), integer(total)};
+    for (std::size_t i = 0; i < 4; ++i) put_summary(row, cohort.summary(i));
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
+// "F(1, 8) = 14.496, p = 0.00518", as the paper writes it, or the reason there is no F.
+std::string result_text(const Anova& a) {
+  if (!a.f || !a.p) return "F undefined";
+  return fmt::format("F({}, {}) = {:.3f}, p = {:.3g}", a.df1, a.df2, *a.f, *a.p);
+}
+
+// The one-way ANOVA between mild and severe per parameter, one observation per participant (their
+// mean), as the paper's F(1, 8) for five dentists (§4.1.2, §5.2).
+ReportTable anova_table(const Participants& people) {
+  ReportTable table{"anova",
+                    "One-way ANOVA between levels",
+                    "Per parameter, mild against severe; the observations are the participants' mean tuned "
+                    "values (one per participant and level, as the paper's F(1, 8) for five dentists). "
+                    "F = (SS_between / df1) / (SS_within / df2); p = P(F(df1, df2) > F).",
+                    {},
+                    {}};
+  table.columns = {{"parameter", "Parameter", 0},
+                   {"unit", "Unit", 0},
+                   {"mild_mean", "Mild mean", 3},
+                   {"severe_mean", "Severe mean", 3},
+                   {"n_mild", "n mild", 0},
+                   {"n_severe", "n severe", 0},
+                   {"ss_between", "SS between", 4},
+                   {"ss_within", "SS within", 4},
+                   {"df1", "df1", 0},
+                   {"df2", "df2", 0},
+                   {"F", "F", 3},
+                   {"p", "p", -3},
+                   {"significant", "p < 0.05", 0},
+                   {"result", "Result", 0},
+                   {"note", "Note", 0}};
+  const struct {
+    std::string_view score;
+    const char* unit;
+  } parameters[] = {{kScoreMuS, ""}, {kScoreMuD, ""}, {kScoreKc, "N/mm"}, {kScoreKe, "N/mm"}};
+  for (const auto& par : parameters) {
+    std::vector<double> mild, severe;
+    for (const auto& [who, trials] : people) {
+      if (const Summary s = summarize(values_of(trials, par.score, kMild)); s.mean) mild.push_back(*s.mean);
+      if (const Summary s = summarize(values_of(trials, par.score, kSevere)); s.mean)
+        severe.push_back(*s.mean);
+    }
+    if (mild.empty() && severe.empty()) continue;
+    const Anova a = one_way_anova({mild, severe});
+    table.rows.push_back({text(std::string(par.score)), text(par.unit), number(summarize(mild).mean),
+                          number(summarize(severe).mean), integer(mild.size()), integer(severe.size()),
+                          real(a.ss_between), real(a.ss_within), integer(static_cast<std::size_t>(a.df1)),
+                          integer(static_cast<std::size_t>(a.df2)), number(a.f), number(a.p),
+                          a.p ? text(*a.p < 0.05 ? "yes" : "no") : Cell{}, text(result_text(a)),
+                          text(a.note)});
+  }
+  return table;
+}
+
+// The boundary score (§4.2.2): points out of trials, and each shape's share named right.
+ReportTable boundary_table(const Participants& people) {
+  ReportTable table{"boundary",
+                    "Boundary shapes (§4.2.2)",
+                    "Per participant: one point per trial with all three shapes named right, and each "
+                    "shape's share of trials named right; cohort: mean ± SD over participants (the paper: "
+                    "7.2 ± 1.69 points out of 10 trials).",
+                    {},
+                    {}};
+  table.columns = {{"participant", "Participant", 0}, {"trials", "Trials", 0}};
+  add_mean_sd(table, "points", "Points", 2);
+  add_mean_sd(table, "points_per_10", "Points per 10 trials", 2);
+  // The shapes in the data, the paper's three first.
+  std::vector<std::string> shapes;
+  for (const char* s : {"square", "triangle", "circle"}) shapes.emplace_back(s);
+  for (const auto& [who, trials] : people)
+    for (const StudyTrial* t : trials)
+      for (const TrialScore& s : t->scores)
+        if (s.name == kScoreShapeCorrect && std::find(shapes.begin(), shapes.end(), s.level) == shapes.end())
+          shapes.push_back(s.level);
+  for (const std::string& shape : shapes) add_mean_sd(table, "shape_" + shape, "Named " + shape, 2);
+
+  CohortColumns cohort(2 + shapes.size());
+  std::size_t total = 0, participants = 0;
+  for (const auto& [who, trials] : people) {
+    const std::vector<const StudyTrial*> done =
+        trials_with(trials, {kScoreBoundaryPoint, kScoreShapeCorrect});
+    if (done.empty()) continue;
+    ++participants;
+    total += done.size();
+    double points = 0.0;
+    for (double v : values_of(done, kScoreBoundaryPoint, nullptr)) points += v;
+    std::vector<Cell> row{text(who),
+                          integer(done.size()),
+                          real(points),
+                          Cell{},
+                          real(points * 10.0 / static_cast<double>(done.size())),
+                          Cell{}};
+    cohort.add(0, summarize({points}));
+    cohort.add(1, summarize({points * 10.0 / static_cast<double>(done.size())}));
+    for (std::size_t i = 0; i < shapes.size(); ++i) {
+      const Summary s = summarize(values_of(done, kScoreShapeCorrect, shapes[i].c_str()));
+      cohort.add(2 + i, s);
+      row.push_back(number(s.mean));
+      row.push_back(Cell{});
+    }
+    table.rows.push_back(std::move(row));
+  }
+  if (participants > 0) {
+    std::vector<Cell> row{text(kCohort), integer(total)};
+    for (std::size_t i = 0; i < 2 + shapes.size(); ++i) put_summary(row, cohort.summary(i));
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
+// The diagnosis exercise (§5.3): counts summed, rates and times mean ± SD over the participant's cases.
+ReportTable diagnosis_table(const Participants& people) {
+  ReportTable table{"diagnosis",
+                    "Diagnosis (§5.3)",
+                    "Per participant: lesions, detections, misses and false marks summed over the cases; "
+                    "detection rate, severity accuracy and case time mean ± SD over the cases; time to "
+                    "detection mean ± SD over the detected lesions (all, and by the lesion's severity). "
+                    "Cohort: counts summed, the rest mean ± SD of the participant means.",
+                    {},
+                    {}};
+  table.columns = {{"participant", "Participant", 0}, {"cases", "Cases", 0},
+                   {"lesions", "Lesions", 0},         {"detected", "Detected", 0},
+                   {"missed", "Missed", 0},           {"false_marks", "False marks", 0}};
+  add_mean_sd(table, "detection_rate", "Detection rate", 2);
+  add_mean_sd(table, "severity_accuracy", "Severity accuracy", 2);
+  add_mean_sd(table, "time_to_detection_s", "Time to detection (s)", 1);
+  add_mean_sd(table, "time_to_detection_mild_s", "Time to detection, mild (s)", 1);
+  add_mean_sd(table, "time_to_detection_severe_s", "Time to detection, severe (s)", 1);
+  add_mean_sd(table, "case_time_s", "Case time (s)", 1);
+  const std::string_view counts[] = {kScoreLesions, kScoreDetected, kScoreMissed, kScoreFalseMarks};
+
+  CohortColumns cohort(6);
+  double sums[4] = {0, 0, 0, 0};
+  std::size_t total = 0, participants = 0;
+  for (const auto& [who, trials] : people) {
+    std::vector<const StudyTrial*> cases;
+    for (const StudyTrial* t : trials)
+      if (t->kind == kKindDiagnosis) cases.push_back(t);
+    if (cases.empty()) continue;
+    ++participants;
+    total += cases.size();
+    std::vector<Cell> row{text(who), integer(cases.size())};
+    for (std::size_t i = 0; i < 4; ++i) {
+      double sum = 0.0;
+      for (double v : values_of(cases, counts[i], nullptr)) sum += v;
+      sums[i] += sum;
+      row.push_back(real(sum));
+    }
+    const Summary summaries[] = {
+        summarize(values_of(cases, kScoreDetectionRate, nullptr)),
+        summarize(values_of(cases, kScoreSeverityAccuracy, nullptr)),
+        summarize(values_of(cases, kScoreTimeToDetection, nullptr)),
+        summarize(values_of(cases, kScoreTimeToDetection, kMild)),
+        summarize(values_of(cases, kScoreTimeToDetection, kSevere)),
+        summarize(values_of(cases, kScoreCaseTime, nullptr)),
+    };
+    for (std::size_t i = 0; i < 6; ++i) {
+      cohort.add(i, summaries[i]);
+      put_summary(row, summaries[i]);
+    }
+    table.rows.push_back(std::move(row));
+  }
+  if (participants > 0) {
+    std::vector<Cell> row{text(kCohort), integer(total)};
+    for (double s : sums) row.push_back(real(s));
+    for (std::size_t i = 0; i < 6; ++i) put_summary(row, cohort.summary(i));
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
+// Soft-tissue damage, excess force on enamel and blocked insertions, over every trial that scores them.
+ReportTable safety_table(const Participants& people) {
+  ReportTable table{"safety",
+                    "Soft-tissue damage and excess force",
+                    "Per participant, mean ± SD per trial over the trials that score them: time pressing "
+                    "gingiva or tongue beyond the threshold and its peak force, time over the excess force "
+                    "on enamel and its peak; blocked insertions (wrong posture, Fig. 17b) summed. Cohort: "
+                    "mean ± SD of the participant means, blocked insertions summed.",
+                    {},
+                    {}};
+  table.columns = {{"participant", "Participant", 0}, {"trials", "Trials", 0}};
+  const struct {
+    std::string_view score;
+    const char* key;
+    const char* header;
+  } scores[] = {{kScoreSoftTissueTime, "soft_tissue_time_s", "Soft-tissue time (s)"},
+                {kScoreSoftTissuePeak, "soft_tissue_peak_N", "Soft-tissue peak (N)"},
+                {kScoreEnamelExcessTime, "enamel_excess_time_s", "Enamel excess-force time (s)"},
+                {kScoreEnamelPeak, "enamel_peak_N", "Enamel peak (N)"}};
+  for (const auto& s : scores) add_mean_sd(table, s.key, s.header, 2);
+  table.columns.push_back({"blocked_insertions", "Blocked insertions", 0});
+
+  CohortColumns cohort(4);
+  double blocked_total = 0.0;
+  std::size_t total = 0, participants = 0;
+  for (const auto& [who, trials] : people) {
+    const std::vector<const StudyTrial*> scored =
+        trials_with(trials, {kScoreSoftTissueTime, kScoreSoftTissuePeak, kScoreEnamelExcessTime,
+                             kScoreEnamelPeak, kScoreBlockedInsertions});
+    if (scored.empty()) continue;
+    ++participants;
+    total += scored.size();
+    std::vector<Cell> row{text(who), integer(scored.size())};
+    for (std::size_t i = 0; i < 4; ++i) {
+      const Summary s = summarize(values_of(scored, scores[i].score, nullptr));
+      cohort.add(i, s);
+      put_summary(row, s);
+    }
+    double blocked = 0.0;
+    for (double v : values_of(scored, kScoreBlockedInsertions, nullptr)) blocked += v;
+    blocked_total += blocked;
+    row.push_back(real(blocked));
+    table.rows.push_back(std::move(row));
+  }
+  if (participants > 0) {
+    std::vector<Cell> row{text(kCohort), integer(total)};
+    for (std::size_t i = 0; i < 4; ++i) put_summary(row, cohort.summary(i));
+    row.push_back(real(blocked_total));
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
+// Learning curves: per participant and kind of study, one score per trial in time order.
+ReportTable learning_table(const Participants& people) {
+  ReportTable table{"learning_curve",
+                    "Learning curves",
+                    "Per participant and kind of study, each trial in the order it started (index 1, 2, ...) "
+                    "with its scores: shapes named right (0-3) for boundary shapes; detection rate, false "
+                    "marks, case time and soft-tissue time for diagnosis.",
+                    {},
+                    {}};
+  table.columns = {{"participant", "Participant", 0}, {"kind", "Kind", 0},       {"index", "Trial #", 0},
+                   {"started_at", "Started", 0},      {"station", "Station", 0}, {"study", "Study", 0},
+                   {"trial", "Study trial", 0},       {"score", "Score", 0},     {"value", "Value", 3}};
+  for (const auto& [who, trials] : people) {
+    std::map<std::string, std::size_t> index;
+    for (const StudyTrial* t : trials) {
+      std::vector<std::pair<std::string, std::optional<double>>> points;
+      if (t->kind == kKindBoundary) {
+        points.emplace_back("shapes_correct", trial_sum(*t, kScoreShapeCorrect));
+      } else if (t->kind == kKindDiagnosis) {
+        points.emplace_back(std::string(kScoreDetectionRate), trial_sum(*t, kScoreDetectionRate));
+        points.emplace_back(std::string(kScoreFalseMarks), trial_sum(*t, kScoreFalseMarks));
+        points.emplace_back(std::string(kScoreCaseTime), trial_sum(*t, kScoreCaseTime));
+        points.emplace_back(std::string(kScoreSoftTissueTime), trial_sum(*t, kScoreSoftTissueTime));
+      } else {
+        continue;
+      }
+      const std::size_t i = ++index[t->kind];
+      for (const auto& [score, value] : points) {
+        if (!value) continue;
+        table.rows.push_back({text(who), text(t->kind), integer(i), text(t->started_at), text(t->station),
+                              text(t->study), id(t->trial), text(score), real(*value)});
+      }
+    }
+  }
+  return table;
+}
+
+// The inputs, the duplicates and the unfinished trials.
+ReportTable inputs_table(const MergedStudies& merged) {
+  ReportTable table{"inputs",
+                    "Study databases",
+                    "Each database given: its trial rows, how many finished, how many were left out as "
+                    "copies of a row already counted.",
+                    {},
+                    {}};
+  table.columns = {{"file", "File", 0},
+                   {"trials", "Trials", 0},
+                   {"finished", "Finished", 0},
+                   {"unfinished", "Unfinished", 0},
+                   {"duplicates", "Duplicates", 0},
+                   {"note", "Note", 0}};
+  for (const MergedStudies::Input& in : merged.inputs)
+    table.rows.push_back({text(in.file), integer(in.trials), integer(in.finished),
+                          integer(in.trials - in.finished), integer(in.duplicates),
+                          text(in.same_file_again ? "the same file was given before: counted once" : "")});
+  return table;
+}
+
+ReportTable duplicates_table(const MergedStudies& merged) {
+  ReportTable table{"duplicates",
+                    "Duplicate trial rows",
+                    "Trial rows found more than once (same station, participant, study, trial, seed and "
+                    "start): counted once. `differs` marks copies whose end time or scores disagree.",
+                    {},
+                    {}};
+  table.columns = {{"kept", "Counted", 0}, {"dropped", "Left out", 0}, {"differs", "Differs", 0}};
+  for (const DuplicateTrial& d : merged.duplicates)
+    table.rows.push_back({text(d.kept), text(d.dropped), text(d.differs ? "yes" : "no")});
+  return table;
+}
+
+ReportTable unfinished_table(const MergedStudies& merged) {
+  ReportTable table{"unfinished",
+                    "Unfinished trials",
+                    "Trials without an end time (a crash or an abandoned case): listed, left out of every "
+                    "statistic.",
+                    {},
+                    {}};
+  table.columns = {{"file", "File", 0},         {"id", "Row", 0},
+                   {"station", "Station", 0},   {"participant", "Participant", 0},
+                   {"study", "Study", 0},       {"kind", "Kind", 0},
+                   {"trial", "Trial", 0},       {"seed", "Seed", 0},
+                   {"started_at", "Started", 0}};
+  for (const StudyTrial& t : merged.unfinished)
+    table.rows.push_back({text(t.file), id(t.id), text(t.station), text(t.participant), text(t.study),
+                          text(t.kind), id(t.trial), id(t.seed), text(t.started_at)});
+  return table;
+}
+
+}  // namespace
+
+Report build_report(MergedStudies merged) {
+  Report report;
+  const Participants people = by_participant(merged.finished);
+  report.tables.push_back(inputs_table(merged));
+  report.tables.push_back(tuning_table(
+      people, "table1_roughness", "Table 1: tuned friction coefficients (§4.1.2)",
+      "Per participant and level, mean ± SD of the tuned static and dynamic friction coefficients over "
+      "their trials; cohort: mean ± SD of the participant means (the paper: mild μs 0.18 ± 0.07, "
+      "μd 0.17 ± 0.06; severe μs 0.51 ± 0.16, μd 0.45 ± 0.15).",
+      kScoreMuS, "μs", kScoreMuD, "μd", 2));
+  report.tables.push_back(tuning_table(
+      people, "table2_stiffness", "Table 2: tuned stiffness (§5.2)",
+      "Per participant and level, mean ± SD of the tuned penetration stiffness k_c and contact stiffness "
+      "k_e (N/mm) over their trials; cohort: mean ± SD of the participant means (the paper: mild k_c "
+      "0.58 ± 0.10, k_e 0.53 ± 0.13; severe k_c 0.20 ± 0.06, k_e 0.38 ± 0.07).",
+      kScoreKc, "k_c (N/mm)", kScoreKe, "k_e (N/mm)", 2));
+  report.tables.push_back(anova_table(people));
+  report.tables.push_back(boundary_table(people));
+  report.tables.push_back(diagnosis_table(people));
+  report.tables.push_back(safety_table(people));
+  report.tables.push_back(learning_table(people));
+  report.tables.push_back(unfinished_table(merged));
+  report.tables.push_back(duplicates_table(merged));
+
+  // What a reader should know before reading the numbers.
+  for (const MergedStudies::Input& in : merged.inputs)
+    if (in.same_file_again) report.warnings.push_back(in.file + ": given twice; counted once");
+  if (!merged.duplicates.empty()) {
+    std::size_t differing = 0;
+    for (const DuplicateTrial& d : merged.duplicates) differing += d.differs ? 1 : 0;
+    report.warnings.push_back(std::to_string(merged.duplicates.size()) +
+                              " duplicate trial row(s) counted once" +
+                              (differing ? " (" + std::to_string(differing) +
+                                               " with a different end time or scores: the finished copy read "
+                                               "first is counted)"
+                                         : std::string()));
+  }
+  if (!merged.unfinished.empty())
+    report.warnings.push_back(std::to_string(merged.unfinished.size()) +
+                              " unfinished trial(s) listed and left out of the statistics");
+  if (merged.finished.empty()) report.warnings.push_back("no finished trials: every table is empty");
+  report.merged = std::move(merged);
+  return report;
+}
+
+}  // namespace cariesim::training

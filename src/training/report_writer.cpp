@@ -1,0 +1,375 @@
+// Writing a report (docs/reports.md): NAME.csv per table, report.json with every table, the figures
+// and report.html, a single self-contained page (inline style, figures as base64 PNG data URIs, no
+// script), all staged in a hidden sibling folder and moved into place when complete.
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <boost/archive/iterators/base64_from_binary.hpp>
+#include <boost/archive/iterators/transform_width.hpp>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+
+#include "cariesim/common/clock.hpp"
+#include "cariesim/common/error.hpp"
+#include "cariesim/experiment/json.hpp"
+#include "cariesim/training/report.hpp"
+
+namespace cariesim::training {
+
+namespace fs = std::filesystem;
+
+std::string base64_encode(const std::string& bytes) {
+  // Boost.Serialization's iterators regroup 8-bit bytes into 6-bit characters; the '=' padding to a
+  // multiple of four characters is RFC 4648's and added here.
+  using Encoder = boost::archive::iterators::base64_from_binary<
+      boost::archive::iterators::transform_width<std::string::const_iterator, 6, 8>>;
+  std::string out(Encoder(bytes.begin()), Encoder(bytes.end()));
+  out.append((4 - out.size() % 4) % 4, '=');
+  return out;
+}
+
+Cell Cell::of_text(std::string s) {
+  Cell c;
+  c.kind = Kind::Text;
+  c.text = std::move(s);
+  return c;
+}
+
+Cell Cell::of_integer(std::int64_t i) {
+  Cell c;
+  c.kind = Kind::Integer;
+  c.integer = i;
+  return c;
+}
+
+Cell Cell::of_number(double d) {
+  Cell c;
+  if (!std::isfinite(d)) return c;
+  c.kind = Kind::Number;
+  c.number = d;
+  return c;
+}
+
+namespace {
+
+// The staging folder: a hidden sibling of the target (same file system, so the files move into place
+// by rename), removed whatever happens unless its content was moved.
+class Staging {
+ public:
+  explicit Staging(const fs::path& target)
+      : path_(target.parent_path() /
+              ("." + target.filename().string() + ".report-" + std::to_string(::getpid()))) {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+    if (!fs::create_directories(path_, ec) || ec)
+      throw Error(target.string() + ": cannot create the report's staging folder " + path_.string() + ": " +
+                  (ec ? ec.message() : std::string("it exists")));
+  }
+  ~Staging() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  Staging(const Staging&) = delete;
+  Staging& operator=(const Staging&) = delete;
+  [[nodiscard]] const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+void write_file(const fs::path& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw Error(file.string() + ": cannot write");
+}
+
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in) throw Error(file.string() + ": cannot read the figure");
+  return text.str();
+}
+
+// A number in full (shortest round-trip) precision; cells only hold finite numbers.
+std::string full(double v) { return std::isfinite(v) ? fmt::format("{}", v) : std::string(); }
+
+// CSV: RFC 4180 quoting where a field needs it; an empty cell for a value that does not exist.
+std::string csv_field(const Cell& cell) {
+  switch (cell.kind) {
+    case Cell::Kind::Text: {
+      if (cell.text.find_first_of(",\"\n\r") == std::string::npos) return cell.text;
+      std::string q = "\"";
+      for (char c : cell.text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+      return q + "\"";
+    }
+    case Cell::Kind::Integer:
+      return std::to_string(cell.integer);
+    case Cell::Kind::Number:
+      return full(cell.number);
+    case Cell::Kind::Empty:
+      break;
+  }
+  return {};
+}
+
+std::string table_csv(const ReportTable& table) {
+  std::string out;
+  for (std::size_t c = 0; c < table.columns.size(); ++c) out += (c ? "," : "") + table.columns[c].key;
+  out += '\n';
+  for (const std::vector<Cell>& row : table.rows) {
+    for (std::size_t c = 0; c < row.size(); ++c) out += (c ? "," : "") + csv_field(row[c]);
+    out += '\n';
+  }
+  return out;
+}
+
+void json_cell(JsonWriter& json, const Cell& cell) {
+  switch (cell.kind) {
+    case Cell::Kind::Text:
+      json.value(cell.text);
+      return;
+    case Cell::Kind::Integer:
+      json.value(static_cast<long long>(cell.integer));
+      return;
+    case Cell::Kind::Number:
+      json.value(cell.number);
+      return;  // finite by construction
+    case Cell::Kind::Empty:
+      break;
+  }
+  json.null();
+}
+
+std::string html_escape(std::string_view s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string html_number(const Cell& cell, int decimals) {
+  switch (cell.kind) {
+    case Cell::Kind::Number:
+      // decimals < 0: that many significant digits (p-values down to 1e-5 and below).
+      return decimals < 0 ? fmt::format("{:.{}g}", cell.number, -decimals)
+                          : fmt::format("{:.{}f}", cell.number, decimals);
+    case Cell::Kind::Integer:
+      return std::to_string(cell.integer);
+    case Cell::Kind::Text:
+      return html_escape(cell.text);
+    case Cell::Kind::Empty:
+      break;
+  }
+  return "–";
+}
+
+bool ends_with(const std::string& s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// A table in HTML: a KEY_mean column followed by KEY_sd is one "mean ± SD" cell.
+std::string table_html(const ReportTable& table) {
+  std::string out = "<section id=\"" + table.name + "\">\n<h2>" + html_escape(table.title) + "</h2>\n<p>" +
+                    html_escape(table.caption) + " <span class=\"files\">(" + table.name +
+                    ".csv)</span></p>\n";
+  if (table.rows.empty()) return out + "<p class=\"empty\">No data.</p>\n</section>\n";
+  auto pair_at = [&](std::size_t c) {
+    const std::string& key = table.columns[c].key;
+    return ends_with(key, "_mean") && c + 1 < table.columns.size() &&
+           table.columns[c + 1].key == key.substr(0, key.size() - 5) + "_sd";
+  };
+  out += "<div class=\"scroll\"><table>\n<thead><tr>";
+  for (std::size_t c = 0; c < table.columns.size(); ++c) {
+    out += "<th>" + html_escape(table.columns[c].header) + "</th>";
+    if (pair_at(c)) ++c;
+  }
+  out += "</tr></thead>\n<tbody>\n";
+  for (const std::vector<Cell>& row : table.rows) {
+    const bool cohort = !row.empty() && row[0].kind == Cell::Kind::Text && row[0].text == "cohort";
+    out += cohort ? "<tr class=\"cohort\">" : "<tr>";
+    for (std::size_t c = 0; c < table.columns.size() && c < row.size(); ++c) {
+      const int decimals = table.columns[c].decimals;
+      std::string text = html_number(row[c], decimals);
+      if (pair_at(c)) {
+        if (row[c + 1].kind != Cell::Kind::Empty) text += " ± " + html_number(row[c + 1], decimals);
+        ++c;
+      }
+      out += "<td>" + text + "</td>";
+    }
+    out += "</tr>\n";
+  }
+  return out + "</tbody>\n</table></div>\n</section>\n";
+}
+
+// Where each figure goes (after which table) and what it shows.
+struct FigurePlace {
+  const char* stem;
+  const char* after_table;
+  const char* caption;
+};
+constexpr FigurePlace kFigurePlaces[] = {
+    {"report-tuning", "anova",
+     "Tuned values per participant (mean ± SD over their trials), mild against severe, with the cohort."},
+    {"report-boundary", "boundary",
+     "Boundary score per participant and the share of trials each shape was named right."},
+    {"report-diagnosis", "diagnosis", "Detection rate and time to detection per participant."},
+    {"report-learning", "learning_curve",
+     "Learning curves: each participant's scores per trial, in time order."},
+};
+
+std::string figure_html(const fs::path& file, const char* caption) {
+  return "<figure><img alt=\"" + html_escape(file.filename().string()) + "\" src=\"data:image/png;base64," +
+         base64_encode(read_file(file)) + "\"><figcaption>" + html_escape(caption) + " (" +
+         html_escape(file.filename().string()) + ")</figcaption></figure>\n";
+}
+
+std::string report_html(const Report& report, const std::vector<fs::path>& figures,
+                        const std::string& generated) {
+  std::string out =
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>cariesim "
+      "report</title>\n"
+      "<style>\n"
+      "body{font-family:sans-serif;margin:2em;max-width:75em;color:#222}\n"
+      "table{border-collapse:collapse;margin:0.5em 0 1.5em}\n"
+      "th,td{border:1px solid #bbb;padding:0.25em 0.6em;text-align:right}\n"
+      "td{white-space:nowrap}\n.scroll{overflow-x:auto}\n"
+      "th:first-child,td:first-child{text-align:left}\n"
+      "thead th{background:#eef}\n"
+      "tr.cohort td{font-weight:bold;background:#f6f6f6}\n"
+      ".warning{color:#a40}\n.files{color:#777;font-size:0.9em}\n.empty{color:#777}\n"
+      "figure{margin:1em 0}\nimg{max-width:100%}\nfigcaption{color:#555;font-size:0.9em}\n"
+      "</style>\n</head>\n<body>\n<h1>cariesim report</h1>\n";
+  out += "<p>" + std::to_string(report.merged.inputs.size()) + " database(s), " +
+         std::to_string(report.merged.finished.size()) + " finished trial(s) counted, " +
+         std::to_string(report.merged.unfinished.size()) + " unfinished. Generated " +
+         html_escape(generated) + " by cariesim " + CARIESIM_VERSION +
+         ". Every table is also NAME.csv and in report.json.</p>\n";
+  if (!report.warnings.empty()) {
+    out += "<ul>\n";
+    for (const std::string& w : report.warnings) out += "<li class=\"warning\">" + html_escape(w) + "</li>\n";
+    out += "</ul>\n";
+  }
+  std::vector<bool> placed(figures.size(), false);
+  for (const ReportTable& table : report.tables) {
+    out += table_html(table);
+    for (std::size_t i = 0; i < figures.size(); ++i)
+      for (const FigurePlace& place : kFigurePlaces)
+        if (!placed[i] && figures[i].stem() == place.stem && table.name == place.after_table) {
+          out += figure_html(figures[i], place.caption);
+          placed[i] = true;
+        }
+  }
+  for (std::size_t i = 0; i < figures.size(); ++i)
+    if (!placed[i]) out += figure_html(figures[i], "Figure");
+  if (figures.empty())
+    out += "<p class=\"empty\">No figures: they need python3 with matplotlib (docs/reports.md).</p>\n";
+  return out + "</body>\n</html>\n";
+}
+
+std::string report_json(const Report& report, const std::vector<fs::path>& figures,
+                        const std::string& generated) {
+  JsonWriter json;
+  json.begin_object();
+  json.field("generated_at", generated).field("version", CARIESIM_VERSION);
+  json.key("warnings").begin_array();
+  for (const std::string& w : report.warnings) json.value(w);
+  json.end_array();
+  json.key("figures").begin_array();
+  for (const fs::path& f : figures) json.value(f.filename().string());
+  json.end_array();
+  json.key("tables").begin_object();
+  for (const ReportTable& table : report.tables) {
+    json.key(table.name).begin_object();
+    json.field("title", table.title).field("caption", table.caption);
+    json.key("columns").begin_array();
+    for (const Column& c : table.columns) json.value(c.key);
+    json.end_array();
+    json.key("rows").begin_array();
+    for (const std::vector<Cell>& row : table.rows) {
+      json.begin_object();
+      for (std::size_t c = 0; c < table.columns.size() && c < row.size(); ++c) {
+        json.key(table.columns[c].key);
+        json_cell(json, row[c]);
+      }
+      json.end_object();
+    }
+    json.end_array();
+    json.end_object();
+  }
+  json.end_object();
+  json.end_object();
+  return json.str() + "\n";
+}
+
+}  // namespace
+
+ReportFiles write_report(const Report& report, const fs::path& out_dir, const FigureDrawer& draw) {
+  // The target folder and its staging sibling.
+  fs::path target = out_dir.lexically_normal();
+  if (target.filename().empty()) target = target.parent_path();
+  if (target.empty()) target = ".";
+  std::error_code ec;
+  if (fs::exists(target, ec) && !fs::is_directory(target, ec))
+    throw Error(target.string() + ": exists and is not a folder");
+  target = fs::absolute(target, ec);
+  if (!target.parent_path().empty()) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw Error(target.string() + ": cannot create the report folder: " + ec.message());
+  }
+  const Staging staging(target);
+  const fs::path& dir = staging.path();
+  const std::string generated = utc_now_iso8601();
+
+  // The tables as CSV, then the figures drawn from them, then JSON and HTML.
+  for (const ReportTable& table : report.tables) write_file(dir / (table.name + ".csv"), table_csv(table));
+  std::vector<fs::path> figures;
+  if (draw) {
+    for (const fs::path& f : draw(dir)) {
+      const fs::path file = f.is_absolute() ? f : dir / f;
+      if (file.extension() == ".png" && fs::is_regular_file(file, ec)) figures.push_back(file);
+    }
+  }
+  write_file(dir / "report.json", report_json(report, figures, generated));
+  write_file(dir / "report.html", report_html(report, figures, generated));
+
+  // Into place: the whole folder by one rename when `target` is new, otherwise file by file.
+  ReportFiles result;
+  result.dir = target;
+  result.figures = figures.size();
+  std::vector<fs::path> staged;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir)) staged.push_back(e.path().filename());
+  if (!fs::exists(target, ec)) {
+    fs::rename(dir, target, ec);
+    if (ec) throw Error(target.string() + ": cannot move the report into place: " + ec.message());
+  } else {
+    for (const fs::path& name : staged) {
+      fs::rename(dir / name, target / name, ec);
+      if (ec) throw Error((target / name).string() + ": cannot move the report into place: " + ec.message());
+    }
+  }
+  for (const fs::path& name : staged) result.files.push_back(target / name);
+  return result;
+}
+
+}  // namespace cariesim::training

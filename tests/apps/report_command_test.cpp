@@ -1,0 +1,107 @@
+// `cariesim report DB... --out DIR` on two stations' study databases, and on bad input.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "apps/apps_support.hpp"
+#include "support/files.hpp"
+#include "training/study_db_support.hpp"
+
+namespace cariesim {
+namespace {
+
+namespace fs = std::filesystem;
+using test::read_text;
+using training::TrialScore;
+
+class ReportCommand : public test::ScratchTest {
+ protected:
+  ReportCommand() : ScratchTest("cariesim_report_cmd_") {}
+
+  // P1 at station-a and P2 at station-b, two tuning trials each; station-b also has an unfinished one.
+  void make_stations() {
+    test::StudyDbWriter a(dir_ / "station-a.db", "station-a");
+    a.trial("P1", "tuning", "tuning", 1, "2026-11-20T09:00:00Z", "2026-11-20T09:05:00Z",
+            {{"mu_s", "mild", 0.1, ""}, {"mu_s", "severe", 0.5, ""}});
+    a.trial("P1", "tuning", "tuning", 2, "2026-11-20T09:05:00Z", "2026-11-20T09:10:00Z",
+            {{"mu_s", "mild", 0.2, ""}, {"mu_s", "severe", 0.7, ""}});
+    test::StudyDbWriter b(dir_ / "station-b.db", "station-b");
+    b.trial("P2", "tuning", "tuning", 1, "2026-11-21T09:00:00Z", "2026-11-21T09:05:00Z",
+            {{"mu_s", "mild", 0.3, ""}, {"mu_s", "severe", 0.8, ""}});
+    b.trial("P2", "tuning", "tuning", 2, "2026-11-21T09:05:00Z", "2026-11-21T09:10:00Z",
+            {{"mu_s", "mild", 0.3, ""}, {"mu_s", "severe", 0.9, ""}});
+    b.trial("P2", "tuning", "tuning", 3, "2026-11-21T09:10:00Z", std::nullopt, {{"mu_s", "mild", 0.99, ""}});
+  }
+
+  std::string dbs() const {
+    return "'" + (dir_ / "station-a.db").string() + "' '" + (dir_ / "station-b.db").string() + "'";
+  }
+};
+
+// The figures through the embedded plot_report.py, the same F(1, 2) = 11.7647 as the library test
+// (tests/training/report_test.cpp: mild {0.15, 0.3}, severe {0.6, 0.85}).
+TEST_F(ReportCommand, WritesTheReport) {
+  make_stations();
+  const fs::path out = dir_ / "report";
+  const test::CommandResult r = test::run_cariesim("report " + dbs() + " --out '" + out.string() + "'", dir_);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("2 database(s), 4 finished trial(s), 1 unfinished"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning: 1 unfinished trial(s)"), std::string::npos) << r.err;
+  for (const char* f : {"report.html", "report.json", "table1_roughness.csv", "anova.csv", "boundary.csv",
+                        "diagnosis.csv", "safety.csv", "learning_curve.csv", "unfinished.csv",
+                        "duplicates.csv", "inputs.csv", "table2_stiffness.csv"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  const std::string anova = read_text(out / "anova.csv");
+  EXPECT_NE(anova.find(",1,2,11.76470588235"), std::string::npos) << anova;  // df1, df2, F
+  EXPECT_NE(anova.find(",0.0754996729579"), std::string::npos) << anova;     // p
+  const std::string html = read_text(out / "report.html");
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  if (std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "/usr/bin/python3 with matplotlib is missing: figures not checked";
+  EXPECT_NE(r.err.find("(1 figure(s))"), std::string::npos)
+      << r.err;  // tuning only: no boundary or diagnosis
+  EXPECT_NE(html.find("src=\"data:image/png;base64,iVBORw0KGgo"), std::string::npos);
+  EXPECT_TRUE(fs::exists(out / "report-tuning.png"));
+}
+
+TEST_F(ReportCommand, NoFigures) {
+  make_stations();
+  const fs::path out = dir_ / "report";
+  const test::CommandResult r =
+      test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures --quiet", dir_);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  EXPECT_FALSE(fs::exists(out / "report-tuning.png"));
+  EXPECT_NE(read_text(out / "report.html").find("No figures"), std::string::npos);
+}
+
+// A database that is not a study database: exit 2, the file named, no report folder written, and an
+// earlier report left as it was.
+TEST_F(ReportCommand, BadDatabaseNamesTheFileAndWritesNothing) {
+  make_stations();
+  const fs::path bad = dir_ / "notes.db";
+  std::ofstream(bad) << "not a database at all, just some notes\n";
+  const fs::path out = dir_ / "report";
+  test::CommandResult r =
+      test::run_cariesim("report " + dbs() + " '" + bad.string() + "' --out '" + out.string() + "'", dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("error: " + bad.string() + ": not a study database"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+
+  ASSERT_EQ(test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures", dir_).status,
+            0);
+  const std::string earlier = read_text(out / "report.html");
+  r = test::run_cariesim("report '" + bad.string() + "' --out '" + out.string() + "'", dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(read_text(out / "report.html"), earlier);
+
+  r = test::run_cariesim("report --out '" + out.string() + "'", dir_);
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("DB"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace cariesim
