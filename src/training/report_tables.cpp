@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <map>
-#include <set>
 #include <string>
+#include <tuple>
 
 #include "cariesim/training/report.hpp"
 #include "cariesim/training/stats.hpp"
@@ -355,7 +355,7 @@ ReportTable safety_table(const Participants& people) {
 // Learning curves: per participant and kind of study, one score per trial in time order.
 ReportTable learning_table(const Participants& people) {
   ReportTable table{"learning_curve",
-                    "Learning curves",
+                    "Learning curves, every trial",
                     "Per participant and kind of study, each trial in the order it started (index 1, 2, ...) "
                     "with its scores: shapes named right (0-3) for boundary shapes; detection rate, false "
                     "marks, case time and soft-tissue time for diagnosis.",
@@ -385,6 +385,44 @@ ReportTable learning_table(const Participants& people) {
                               text(t->study), id(t->trial), text(score), real(*value)});
       }
     }
+  }
+  return table;
+}
+
+// The learning curves summed up: per participant, kind and score, the first and last trial's value
+// and the least-squares slope per trial.
+ReportTable learning_summary_table(const ReportTable& curve) {
+  ReportTable table{"learning_summary",
+                    "Learning curves",
+                    "Per participant, kind of study and score (learning_curve.csv holds every trial): the "
+                    "trials, the first and the last trial's value, the mean, and the least-squares slope "
+                    "of the value against the trial's index (change per trial; positive means rising).",
+                    {},
+                    {}};
+  table.columns = {{"participant", "Participant", 0},
+                   {"kind", "Kind", 0},
+                   {"score", "Score", 0},
+                   {"trials", "Trials", 0},
+                   {"first", "First", 2},
+                   {"last", "Last", 2},
+                   {"mean", "Mean", 2},
+                   {"slope_per_trial", "Slope per trial", 3}};
+  // learning_table's columns: participant 0, kind 1, index 2, ..., score 7, value 8.
+  std::map<std::tuple<std::string, std::string, std::string>,
+           std::pair<std::vector<double>, std::vector<double>>>
+      series;
+  std::vector<std::tuple<std::string, std::string, std::string>> order;
+  for (const std::vector<Cell>& row : curve.rows) {
+    auto key = std::make_tuple(row[0].text, row[1].text, row[7].text);
+    if (!series.count(key)) order.push_back(key);
+    series[key].first.push_back(static_cast<double>(row[2].integer));
+    series[key].second.push_back(row[8].number);
+  }
+  for (const auto& key : order) {
+    const auto& [x, y] = series.at(key);
+    table.rows.push_back({text(std::get<0>(key)), text(std::get<1>(key)), text(std::get<2>(key)),
+                          integer(y.size()), real(y.front()), real(y.back()), number(summarize(y).mean),
+                          number(least_squares_slope(x, y))});
   }
   return table;
 }
@@ -463,7 +501,10 @@ Report build_report(MergedStudies merged) {
   report.tables.push_back(boundary_table(people));
   report.tables.push_back(diagnosis_table(people));
   report.tables.push_back(safety_table(people));
-  report.tables.push_back(learning_table(people));
+  ReportTable curve = learning_table(people);
+  curve.in_html = false;
+  report.tables.push_back(learning_summary_table(curve));
+  report.tables.push_back(std::move(curve));
   report.tables.push_back(unfinished_table(merged));
   report.tables.push_back(duplicates_table(merged));
 

@@ -194,6 +194,9 @@ std::string table_html(const ReportTable& table) {
                     html_escape(table.caption) + " <span class=\"files\">(" + table.name +
                     ".csv)</span></p>\n";
   if (table.rows.empty()) return out + "<p class=\"empty\">No data.</p>\n</section>\n";
+  if (!table.in_html)
+    return out + "<p class=\"files\">" + std::to_string(table.rows.size()) + " rows in " + table.name +
+           ".csv and report.json.</p>\n</section>\n";
   auto pair_at = [&](std::size_t c) {
     const std::string& key = table.columns[c].key;
     return ends_with(key, "_mean") && c + 1 < table.columns.size() &&

@@ -42,6 +42,23 @@ Summary summarize(const std::vector<double>& values) {
   return s;
 }
 
+std::optional<double> least_squares_slope(const std::vector<double>& x, const std::vector<double>& y) {
+  if (x.size() != y.size())
+    throw Error("slope: " + std::to_string(x.size()) + " x values against " + std::to_string(y.size()) +
+                " y values");
+  require_finite(x, "slope");
+  require_finite(y, "slope");
+  if (x.size() < 2) return std::nullopt;
+  const double mx = mean_of(x), my = mean_of(y);
+  double sxy = 0.0, sxx = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxy += (x[i] - mx) * (y[i] - my);
+    sxx += (x[i] - mx) * (x[i] - mx);
+  }
+  if (sxx == 0.0) return std::nullopt;
+  return sxy / sxx;
+}
+
 double f_distribution_upper_tail(double f, double df1, double df2) {
   if (!std::isfinite(f) || f < 0.0)
     throw Error("F distribution: F = " + std::to_string(f) + " is not a finite F >= 0");

@@ -78,6 +78,32 @@ TEST_F(ReportCommand, NoFigures) {
   EXPECT_NE(read_text(out / "report.html").find("No figures"), std::string::npos);
 }
 
+// docs/reports.md's example runs as written: examples/make_example_study.py (which reads the schema
+// from src/training/study_schema.hpp) and the report of its two stations.
+TEST_F(ReportCommand, DocumentedExampleRuns) {
+  if (std::system("/usr/bin/python3 -c 'import sqlite3' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "/usr/bin/python3 is missing";
+  const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/examples/make_example_study.py";
+  ASSERT_EQ(std::system(
+                ("/usr/bin/python3 '" + script + "' '" + (dir_ / "class").string() + "' >/dev/null").c_str()),
+            0);
+  const fs::path out = dir_ / "class" / "report";
+  const test::CommandResult r = test::run_cariesim("report '" + (dir_ / "class" / "station-a.db").string() +
+                                                       "' '" + (dir_ / "class" / "station-b.db").string() +
+                                                       "' --out '" + out.string() + "' --no-figures",
+                                                   dir_);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("report: 2 database(s), 90 finished trial(s), 1 unfinished, 0 duplicate row(s)"),
+            std::string::npos)
+      << r.err;
+  // Five dentists in both tables and an F(1, 8) per parameter, as in the paper.
+  const std::string anova = read_text(out / "anova.csv");
+  for (const char* parameter : {"mu_s,", "mu_d,", "k_c,", "k_e,"})
+    EXPECT_NE(anova.find(std::string(parameter)), std::string::npos) << anova;
+  EXPECT_NE(anova.find(",5,5,"), std::string::npos) << anova;
+  EXPECT_NE(anova.find(",1,8,"), std::string::npos) << anova;
+}
+
 // A database that is not a study database: exit 2, the file named, no report folder written, and an
 // earlier report left as it was.
 TEST_F(ReportCommand, BadDatabaseNamesTheFileAndWritesNothing) {

@@ -282,6 +282,20 @@ TEST_F(ReportTest, TwoStationsGiveTheTablesByHand) {
       p1_curve.push_back(r.at("index") + ":" + r.at("trial") + ":" + r.at("value"));
   EXPECT_EQ(p1_curve, (std::vector<std::string>{"1:1:3", "2:2:2", "3:3:3"}));
 
+  // Its summary: P1's {3, 2, 3} has slope 0 (sum (x - 2)(y - 8/3) = -1/3 + 0 + 1/3), P2's boundary
+  // {1, 3} slope 2, P2's detection rate {2/3, 1} slope 1/3.
+  const auto summary = read_csv(out / "learning_summary.csv");
+  ASSERT_EQ(summary.size(), 6U);  // P1 boundary; P2 boundary; P2 diagnosis x 4 scores
+  EXPECT_EQ(summary[0].at("participant"), "P1");
+  EXPECT_EQ(summary[0].at("trials"), "3");
+  EXPECT_NEAR(num(summary[0], "first"), 3.0, 1e-12);
+  EXPECT_NEAR(num(summary[0], "last"), 3.0, 1e-12);
+  EXPECT_NEAR(num(summary[0], "mean"), 8.0 / 3.0, 1e-12);
+  EXPECT_NEAR(num(summary[0], "slope_per_trial"), 0.0, 1e-12);
+  EXPECT_NEAR(num(summary[1], "slope_per_trial"), 2.0, 1e-12);
+  EXPECT_EQ(summary[2].at("score"), "detection_rate");
+  EXPECT_NEAR(num(summary[2], "slope_per_trial"), 1.0 / 3.0, 1e-12);
+
   // Unfinished trials are listed.
   const auto unfinished = read_csv(out / "unfinished.csv");
   ASSERT_EQ(unfinished.size(), 1U);
@@ -305,6 +319,7 @@ TEST_F(ReportTest, TwoStationsGiveTheTablesByHand) {
                   "<td>mu_s</td><td></td><td>0.225</td><td>0.725</td><td>2</td><td>2</td><td>0.2500</"
                   "td><td>0.0425</td><td>1</td><td>2</td><td>11.765</td><td>0.0755</td><td>no</td>"));
   EXPECT_TRUE(has(html, "<h2>Boundary shapes"));
+  EXPECT_TRUE(has(html, "13 rows in learning_curve.csv and report.json."));
   EXPECT_TRUE(has(html, "1 unfinished trial(s)"));
   EXPECT_FALSE(has(html, "<script"));
   EXPECT_FALSE(has(html, "src=\"http"));

@@ -166,6 +166,18 @@ TEST(Stats, ZeroVarianceWithinGroupsIsReportedNotInfinite) {
   EXPECT_FALSE(same.f);
 }
 
+// x = {1, 2, 3, 4}, y = {2, 3, 3, 5}: mean x 2.5, mean y 3.25; sum (x - 2.5)(y - 3.25) =
+// (-1.5)(-1.25) + (-0.5)(-0.25) + (0.5)(-0.25) + (1.5)(1.75) = 1.875 + 0.125 - 0.125 + 2.625 = 4.5;
+// sum (x - 2.5)^2 = 2.25 + 0.25 + 0.25 + 2.25 = 5; slope 0.9.
+TEST(Stats, LeastSquaresSlopeByHand) {
+  const std::optional<double> slope = least_squares_slope({1, 2, 3, 4}, {2, 3, 3, 5});
+  ASSERT_TRUE(slope);
+  EXPECT_NEAR(*slope, 0.9, 1e-15);
+  EXPECT_FALSE(least_squares_slope({1}, {2}));
+  EXPECT_FALSE(least_squares_slope({2, 2}, {1, 3}));
+  EXPECT_THROW(least_squares_slope({1, 2}, {1}), Error);
+}
+
 TEST(Stats, FDistributionTailChecksItsArguments) {
   EXPECT_NEAR(f_distribution_upper_tail(0.0, 1, 8), 1.0, 1e-15);
   EXPECT_THROW(f_distribution_upper_tail(-1.0, 1, 8), Error);

@@ -97,6 +97,7 @@ struct ReportTable {
   std::string caption;  ///< what the table shows (HTML, JSON)
   std::vector<Column> columns;
   std::vector<std::vector<Cell>> rows;
+  bool in_html = true;  ///< false: CSV and JSON only (a long-form table), the page names the file
 };
 
 /// The whole report before it is written.

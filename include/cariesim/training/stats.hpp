@@ -45,6 +45,11 @@ struct Anova {
 /// within the groups.
 Anova one_way_anova(const std::vector<std::vector<double>>& groups);
 
+/// Least-squares slope of y against x: sum (x - mean x)(y - mean y) / sum (x - mean x)^2. Empty
+/// with fewer than two points or when every x is the same; throws cariesim::Error when the lists
+/// differ in length or a value is not finite.
+std::optional<double> least_squares_slope(const std::vector<double>& x, const std::vector<double>& y);
+
 /// P(X > f) for X ~ F(df1, df2) (Boost.Math's fisher_f_distribution); f >= 0 finite, df1, df2 > 0,
 /// else throws cariesim::Error.
 double f_distribution_upper_tail(double f, double df1, double df2);
