@@ -93,9 +93,19 @@ void ViewerApp::start_study(const std::string& participant) {
 void ViewerApp::begin_trial() {
   // The run's next trial (its row is committed, ended_at NULL), then its scene on the worker thread;
   // the trial's session starts, recording, when the scene is ready (poll_build).
-  const training::TrialSetup& setup = run_->begin_trial();
   have_snapshot_ = false;
-  const training::TrialSetup copy = setup;
+  training::TrialSetup copy;
+  try {
+    copy = run_->begin_trial();
+  } catch (const Error& e) {
+    // The database refused the row (or the trial cannot be made): said in the panel and on stderr.
+    study_message_ = locked() ? std::string("The next trial could not begin; please call the instructor.")
+                              : std::string("The next trial could not begin: ") + e.what();
+    study_message_is_error_ = true;
+    std::fprintf(stderr, "run: the next trial could not begin: %s\n", e.what());
+    return;
+  }
+  const training::TrialSetup& setup = copy;
   request_build(
       fmt::format("trial {} of {}", setup.index + 1, run_->trial_count()), [copy] { return copy.scene(); },
       true);
