@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <limits>
@@ -15,6 +16,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/servo/session.hpp"
+#include "cariesim/training/scores.hpp"
 #include "scene/yaml_reader.hpp"
 #include "training/study_schema.hpp"
 
@@ -44,7 +46,7 @@ std::string resolve_device(const std::string& spec, const fs::path& origin) {
 
 // One entry of `trials`.
 ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::string& path, const fs::path& origin) {
-  const Fields f(r, node, path, {"tuning", "shapes", "marks", "end", "device"});
+  const Fields f(r, node, path, {"tuning", "shapes", "marks", "buttons", "end", "device"});
   ScriptedTrial t;
   t.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
   if (const auto n = f.get("tuning"); n.IsDefined()) {
@@ -75,6 +77,14 @@ ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::str
       t.marks.push_back(mark);
     }
   }
+  if (const auto n = f.get("buttons"); n.IsDefined()) {
+    const Fields b(r, n, f.sub("buttons"), {"mild", "severe"});
+    if (const auto m = b.get("mild"); m.IsDefined()) t.mild_button = static_cast<int>(r.integer_in(m, b.sub("mild"), 0, 31));
+    if (const auto m = b.get("severe"); m.IsDefined())
+      t.severe_button = static_cast<int>(r.integer_in(m, b.sub("severe"), 0, 31));
+    if (t.mild_button >= 0 && t.mild_button == t.severe_button)
+      r.fail(n, f.sub("buttons"), "mild and severe need two different buttons");
+  }
   if (const auto n = f.get("end"); n.IsDefined()) t.end = r.number_in(n, f.sub("end"), 0.0, kMaxAnswerTime, "s");
   if (const auto n = f.get("device"); n.IsDefined()) {
     t.device = r.text(n, f.sub("device"));
@@ -84,13 +94,13 @@ ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::str
   return t;
 }
 
-// The recorded graphic tip (mm, world) at the sample nearest to time t (s).
-Vec3 recorded_tip(const Recording& rec, double t, const SourceLoc& where) {
+// The recorded sample nearest to time t (s).
+const ServoSample& recorded_sample(const Recording& rec, double t, const SourceLoc& where) {
   if (rec.samples.empty()) throw Error(fmt::format("{}: a mark at t = {} s, but the trial recorded no motion", where.str(), t));
   const ServoSample* best = &rec.samples.front();
   for (const ServoSample& s : rec.samples)
     if (std::abs(s.t - t) < std::abs(best->t - t)) best = &s;
-  return best->graphic.p;
+  return *best;
 }
 
 // Runs the session until the device's path ends, the servo clock reaches `limit` (s), or forever for
@@ -185,14 +195,26 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
             throw Error(fmt::format("{} shapes named for {} cubes", entry.shapes.size(), setup.cubes.size()));
           for (std::size_t i = 0; i < entry.shapes.size(); ++i) run.name_shape(static_cast<int>(i), entry.shapes[i]);
           break;
-        case StudyKind::Diagnosis:
-          for (const ScriptedMark& m : entry.marks) {
+        case StudyKind::Diagnosis: {
+          // The file's marks and the recorded button presses, in time order.
+          std::vector<ScriptedMark> marks = entry.marks;
+          for (const Mark& m : marks_from_buttons(rec, entry.mild_button, entry.severe_button))
+            marks.push_back({m.t, m.tip, m.grade, m.contact});
+          std::stable_sort(marks.begin(), marks.end(),
+                           [](const ScriptedMark& a, const ScriptedMark& b) { return a.t < b.t; });
+          for (const ScriptedMark& m : marks) {
             // A mark after the case's time ran out, or after its end, is not made.
             if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end)) continue;
-            run.mark(m.at ? *m.at : recorded_tip(rec, m.t, entry.where), m.grade, m.t);
+            if (m.at) {
+              run.mark(*m.at, m.grade, m.t, m.contact);
+            } else {
+              const ServoSample& s = recorded_sample(rec, m.t, entry.where);
+              run.mark(s.graphic.p, m.grade, m.t, s.contacts > 0);
+            }
           }
           if (entry.end) run.end_case(*entry.end);
           break;
+        }
       }
       results.push_back(run.end_trial(run.recording_path(), &model));
     } catch (const Error& e) {

@@ -139,7 +139,7 @@ std::string answers_json(const TrialSetup& setup, const TrialAnswers& a, const s
       w.key("marks").begin_array();
       for (std::size_t i = 0; i < a.marks.size(); ++i) {
         const Mark& m = a.marks[i];
-        w.begin_object().field("t", m.t).field("grade", grade_name(m.grade));
+        w.begin_object().field("t", m.t).field("grade", grade_name(m.grade)).field("contact", m.contact);
         w.key("tip").begin_array().value(m.tip.x()).value(m.tip.y()).value(m.tip.z()).end_array();
         if (i < judged.size()) {
           w.key("lesion");
@@ -248,10 +248,17 @@ const TrialSetup& StudyRun::begin_trial() {
     insert.bind(6, utc_now_iso8601());
     if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
     row_ = sqlite3_last_insert_rowid(db.get());
-    const fs::path relative =
-        options_.recordings / fmt::format("{}-{}-{}.db", study_.name, options_.participant, row_);
+    // STUDY-PARTICIPANT-ROW.db, with -2, -3, ... when a file of that name is left from a database
+    // that was deleted (row ids then start over).
     const fs::path base = options_.database.parent_path();
-    recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+    fs::path relative;
+    for (int n = 1;; ++n) {
+      const std::string suffix = n == 1 ? "" : fmt::format("-{}", n);
+      relative = options_.recordings / fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
+      recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+      std::error_code ec;
+      if (!fs::exists(recording_path_, ec)) break;
+    }
     Statement update(db, "UPDATE trials SET recording = ? WHERE id = ?");
     update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
     update.bind(1, row_);
@@ -308,11 +315,11 @@ void StudyRun::name_shape(int cube, const std::string& shape) {
   answers_.shapes[static_cast<std::size_t>(cube)] = shape;
 }
 
-void StudyRun::mark(const Vec3& tip, Grade grade, double t) {
+void StudyRun::mark(const Vec3& tip, Grade grade, double t, bool contact) {
   if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
   if (answers_.ended_at) throw Error("diagnosis: the case has ended; no more marks");
   if (!tip.allFinite() || !std::isfinite(t)) throw Error("diagnosis: a mark needs a finite tip position and time");
-  answers_.marks.push_back({tip, grade, t});
+  answers_.marks.push_back({tip, grade, t, contact});
 }
 
 void StudyRun::end_case(double t) {

@@ -20,6 +20,9 @@ constexpr std::string_view kCount = "count";
 constexpr std::string_view kFraction = "fraction";
 constexpr std::string_view kSeconds = "s";
 constexpr std::string_view kNewtons = "N";
+// mm: a tool pressing with its tip this close to a lesion's volume, held off by another contact, is
+// pressing on that lesion (a blocked insertion when it does not enter).
+constexpr double kBlockedReach = 1.0;
 
 Score make(std::string_view name, std::string_view level, double value, std::string_view unit) {
   return Score{std::string(name), std::string(level), value, std::string(unit)};
@@ -59,6 +62,58 @@ double case_time(const TrialAnswers& a, const Recording* recording) {
   return t;
 }
 
+// The lesion a sample presses on: the one its tip touches while sliding, else (the tool held off by
+// another contact) the nearest whose volume is within kBlockedReach of the graphic tip; -1 when none.
+int pressed_lesion(const ServoSample& s, const std::vector<ScoredLesion>& lesions) {
+  if (s.state == InteractionState::Inserting || s.state == InteractionState::Extracting || s.contacts == 0) return -1;
+  if (s.lesion >= 0) return static_cast<std::size_t>(s.lesion) < lesions.size() ? s.lesion : -1;
+  int nearest = -1;
+  double best = kBlockedReach;
+  for (std::size_t k = 0; k < lesions.size(); ++k) {
+    const double d = lesions[k].shape.distance(s.graphic.p);
+    if (d <= best) {
+      best = d;
+      nearest = static_cast<int>(k);
+    }
+  }
+  return nearest;
+}
+
+// Blocked insertions (docs/training.md): presses on or next to a lesion at its F_p* or more, lasting
+// at least blocked_min_duration, that end without the state turning to inserting (Fig. 17b).
+int blocked_insertions(const Recording& recording, const std::vector<ScoredLesion>& lesions,
+                       const ScoringDesc& scoring) {
+  const double dt = recording.info.rate_hz > 0.0 ? 1.0 / recording.info.rate_hz : 0.001;
+  int blocked = 0;
+  int lesion = -1;       // the lesion of the open press, -1 when none
+  double pressed = 0.0;  // s, how long the open press has lasted
+  for (const ServoSample& s : recording.samples) {
+    const int at = pressed_lesion(s, lesions);
+    const double force = s.force.norm();
+    if (lesion < 0) {
+      // A press starts at F_p* on (or next to) a lesion.
+      if (at >= 0 && force >= lesions[static_cast<std::size_t>(at)].f_p_star) {
+        lesion = at;
+        pressed = dt;
+      }
+      continue;
+    }
+    if (s.state == InteractionState::Inserting) {
+      lesion = -1;  // it entered: not blocked
+      continue;
+    }
+    if (at == lesion && force >= 0.5 * lesions[static_cast<std::size_t>(lesion)].f_p_star) {
+      pressed += dt;
+      continue;
+    }
+    // The press ended without entering.
+    if (pressed >= scoring.blocked_min_duration) ++blocked;
+    lesion = -1;
+  }
+  if (lesion >= 0 && pressed >= scoring.blocked_min_duration) ++blocked;
+  return blocked;
+}
+
 // Diagnosis (§5.3): detections, misses, false marks, severity, times.
 void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAnswers& a,
                       const Recording* recording, const std::vector<ScoredLesion>& lesions,
@@ -96,46 +151,32 @@ void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAn
   if (recording != nullptr) {
     const std::vector<Score> motion = motion_scores(*recording, study.scoring);
     out.insert(out.end(), motion.begin(), motion.end());
-    // Blocked insertions need the lesions' thresholds: counted here.
-    int blocked = 0;
-    const double dt = recording->info.rate_hz > 0.0 ? 1.0 / recording->info.rate_hz : 0.001;
-    int lesion = -1;         // the lesion of the open press, -1 when none
-    double pressed = 0.0;    // s, how long the open press has lasted
-    for (const ServoSample& s : recording->samples) {
-      const bool on_lesion = s.state == InteractionState::Sliding && s.lesion >= 0 &&
-                             static_cast<std::size_t>(s.lesion) < lesions.size();
-      const double f_p_star = on_lesion ? lesions[static_cast<std::size_t>(s.lesion)].f_p_star : 0.0;
-      const double force = static_cast<double>(s.force.norm());
-      if (lesion < 0) {
-        // A press starts at F_p* on a lesion while sliding.
-        if (on_lesion && force >= f_p_star) {
-          lesion = s.lesion;
-          pressed = dt;
-        }
-        continue;
-      }
-      if (s.state == InteractionState::Inserting) {
-        lesion = -1;  // it entered: not blocked
-        continue;
-      }
-      if (on_lesion && s.lesion == lesion && force >= 0.5 * f_p_star) {
-        pressed += dt;
-        continue;
-      }
-      // The press ended without entering.
-      if (pressed >= study.scoring.blocked_min_duration) ++blocked;
-      lesion = -1;
-    }
-    if (lesion >= 0 && pressed >= study.scoring.blocked_min_duration) ++blocked;
-    out.push_back(make(kScoreBlockedInsertions, "", blocked, kCount));
+    out.push_back(make(kScoreBlockedInsertions, "", blocked_insertions(*recording, lesions, study.scoring), kCount));
   }
 }
 
 }  // namespace
 
+std::vector<Mark> marks_from_buttons(const Recording& recording, int mild_button, int severe_button) {
+  // Rising edges of the two buttons, in sample order.
+  const auto bit = [](int button) { return button >= 0 && button < 32 ? (1u << button) : 0u; };
+  const uint32_t mild = bit(mild_button);
+  const uint32_t severe = bit(severe_button);
+  std::vector<Mark> marks;
+  uint32_t last = 0;
+  for (const ServoSample& s : recording.samples) {
+    const uint32_t pressed = s.buttons & ~last;
+    if ((pressed & mild) != 0) marks.push_back({s.graphic.p, Grade::Mild, s.t, s.contacts > 0});
+    if ((pressed & severe) != 0) marks.push_back({s.graphic.p, Grade::Severe, s.t, s.contacts > 0});
+    last = s.buttons;
+  }
+  return marks;
+}
+
 std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std::vector<ScoredLesion>& lesions,
                                        double margin) {
-  // Each mark goes to the nearest lesion volume within the margin; only a lesion's first mark counts.
+  // Each mark made in contact goes to the nearest lesion volume within the margin; only a lesion's
+  // first mark counts.
   std::vector<MarkJudgement> out;
   std::vector<bool> found(lesions.size(), false);
   for (const Mark& m : marks) {
@@ -149,7 +190,7 @@ std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std
         nearest = static_cast<int>(k);
       }
     }
-    if (nearest >= 0 && j.distance <= margin) {
+    if (nearest >= 0 && j.distance <= margin && m.contact) {
       j.lesion = nearest;
       j.first = !found[static_cast<std::size_t>(nearest)];
       found[static_cast<std::size_t>(nearest)] = true;

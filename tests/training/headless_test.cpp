@@ -6,10 +6,13 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <fstream>
+#include <thread>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/record/recorder.hpp"
+#include "cariesim/training/scores.hpp"
 #include "training/study_schema.hpp"
 #include "training/training_support.hpp"
 
@@ -172,6 +175,72 @@ TEST(Headless, AnswersThatDoNotFitTheTrialNameTheTrialAndTheEntry) {
     EXPECT_NE(msg.find("2 shapes named for 3 cubes"), std::string::npos) << msg;
   }
   EXPECT_EQ(test::query(dir / "class.db", "SELECT ended_at FROM trials")[0][0], "NULL");
+}
+
+}  // namespace
+}  // namespace cariesim::training
+
+namespace cariesim::training {
+namespace {
+
+TEST(ButtonMarks, PressesOfTheTwoButtonsAreMarksAtTheTip) {
+  Recording r;
+  r.samples.resize(10);
+  for (std::size_t i = 0; i < r.samples.size(); ++i) {
+    r.samples[i].t = 0.1 * static_cast<double>(i);
+    r.samples[i].graphic.p = Vec3(static_cast<double>(i), 0.0, 0.0);
+  }
+  // Button 0 held over samples 2-4 (one press), button 2 pressed at 6 and again at 8, button 1 at 7.
+  for (const std::size_t i : {2, 3, 4}) r.samples[i].buttons = 1u;
+  r.samples[6].buttons = 4u;
+  r.samples[7].buttons = 2u;
+  r.samples[8].buttons = 4u;
+  const std::vector<Mark> marks = marks_from_buttons(r, 0, 2);
+  ASSERT_EQ(marks.size(), 3u);
+  EXPECT_EQ(marks[0].grade, Grade::Mild);
+  EXPECT_EQ(marks[0].tip, Vec3(2.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(marks[0].t, 0.2);
+  EXPECT_EQ(marks[1].grade, Grade::Severe);
+  EXPECT_DOUBLE_EQ(marks[1].t, 0.6);
+  EXPECT_DOUBLE_EQ(marks[2].t, 0.8);
+  EXPECT_TRUE(marks_from_buttons(r, -1, -1).empty());
+}
+
+TEST(Headless, DiagnosisMarksFromTheDeviceButtonsOfAReplayedSession) {
+  const fs::path dir = test::scratch();
+  // A session recorded as a trainee would: the probe-fossa path, button 0 pressed in the air at
+  // 0.3 s (a false mild mark) and button 1 with the tip resting on the lesion at 0.9 s (severe).
+  const fs::path session = dir / "trainee.db";
+  {
+    Recorder recorder(session, SessionInfo{});
+    recorder.start();
+    const Quat q(0.965926, 0.0, -0.258819, 0.0);
+    for (int i = 0; i <= 1000; ++i) {
+      const double t = 0.001 * i;
+      const double z = t < 0.4 ? 12.0 - 4.5 * t / 0.4 : t < 0.8 ? 7.5 - 2.8 * (t - 0.4) / 0.4 : 4.7;
+      ServoSample s;
+      s.t = t;
+      s.haptic = Pose{Vec3(0.0, 0.0, z), q.normalized()};
+      s.graphic = s.haptic;
+      s.buttons = (t >= 0.3 && t < 0.32 ? 1u : 0u) | (t >= 0.9 && t < 0.93 ? 2u : 0u);
+      while (!recorder.queue().push(s)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    recorder.stop();
+  }
+  const Study study = load_study((test::examples() / "diagnosis-small.yaml").string());
+  StudyRun run(study, options(dir / "class.db"));
+  HeadlessOptions headless;
+  headless.device = "replay:" + session.string();
+  const auto results =
+      run_headless(run, parse_answers("trials:\n  - {buttons: {mild: 0, severe: 1}, end: 1.0}\n", "answers.yaml"), headless);
+  ASSERT_EQ(results.size(), 1u);
+  const TrialResult& r = results[0];
+  ASSERT_EQ(r.answers.marks.size(), 2u);
+  EXPECT_EQ(r.answers.marks[0].grade, Grade::Mild);
+  EXPECT_EQ(score(r, kScoreDetected), 1.0);
+  EXPECT_EQ(score(r, kScoreFalseMarks), 1.0);
+  EXPECT_EQ(score(r, kScoreSeverityAccuracy), 1.0);
+  EXPECT_NEAR(score(r, kScoreTimeToDetection, "severe"), 0.9, 0.005);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
@@ -85,10 +86,13 @@ TEST(StudyRun, ATrialsRowIsCommittedWhenItBeginsWithEndedAtNull) {
   EXPECT_EQ(rows[0][1], "class-recordings/boundary-small-P01-1.db");
   EXPECT_EQ(run.recording_path(), (db.parent_path() / "class-recordings" / "boundary-small-P01-1.db"));
   EXPECT_TRUE(fs::is_directory(run.recording_path().parent_path()));
+  // A recording left under the next row's name (a deleted database's) is not overwritten.
+  std::ofstream(db.parent_path() / "class-recordings" / "boundary-small-P01-2.db") << "left over";
   // Abandoned: the row stays open and the next trial gets its own row.
   run.abandon_trial();
   run.begin_trial();
   EXPECT_EQ(test::query(db, "SELECT count(*) FROM trials WHERE ended_at IS NULL")[0][0], "2");
+  EXPECT_EQ(run.recording_path().filename(), "boundary-small-P01-2-2.db");
 }
 
 TEST(StudyRun, AppendsToADatabaseAndTheSameSeedGivesTheSameTrials) {

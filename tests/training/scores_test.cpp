@@ -75,6 +75,16 @@ TEST(JudgeMarks, OnTheLesionIsADetectionThreeMillimetresAwayIsNot) {
   EXPECT_NEAR(j[3].distance, 0.6, 1e-9);
 }
 
+TEST(JudgeMarks, AMarkMadeInTheAirDetectsNothing) {
+  // 2 mm above the lesion's centre lies inside its volume (which reaches above the surface), but
+  // the tool touched nothing: a false mark.
+  const std::vector<ScoredLesion> lesions = {disk(0.0, Grade::Severe)};
+  const std::vector<MarkJudgement> j = judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, false}}, lesions, 0.5);
+  ASSERT_EQ(j.size(), 1u);
+  EXPECT_EQ(j[0].lesion, -1);
+  EXPECT_EQ(judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, true}}, lesions, 0.5)[0].lesion, 0);
+}
+
 TEST(JudgeMarks, AMarkGoesToTheNearestLesion) {
   const std::vector<ScoredLesion> lesions = {disk(0.0, Grade::Mild), disk(2.6, Grade::Severe)};
   // 1.35 mm from the first's centre (0.25 beyond its edge), 1.25 from the second's (0.15 beyond).
@@ -224,9 +234,21 @@ TEST(MotionScores, BlockedInsertionsArePressesAtThresholdThatDoNotEnter) {
     r.samples[i].state = InteractionState::Inserting;
     r.samples[i].lesion = 0;
   }
+  // 80 ms held off by another contact with the tip 0.5 mm beside the lesion (the shank against a
+  // neighbour, Fig. 17b): blocked; the same 3 mm away: not a press on the lesion.
+  const auto held_off = [&](std::size_t from, std::size_t to, double x) {
+    for (std::size_t i = from; i < to; ++i) {
+      r.samples[i].state = InteractionState::Sliding;
+      r.samples[i].contacts = 2;
+      r.samples[i].graphic.p = Vec3(x, 0.0, 0.05);
+      r.samples[i].force = Vec3(0.0, 0.0, 2.5);
+    }
+  };
+  held_off(1200, 1280, 1.6);
+  held_off(1300, 1400, 4.1);
   press(1500, 2000, 3.0);  // until the recording ends: blocked
   const std::vector<Score> s = compute_scores(f.study, f.setup, TrialAnswers{}, &r, lesions);
-  EXPECT_EQ(value(s, kScoreBlockedInsertions), 2.0);
+  EXPECT_EQ(value(s, kScoreBlockedInsertions), 3.0);
   EXPECT_NEAR(value(s, kScoreCaseTime), 1.999, 1e-9);  // no end: the last sample
 }
 

@@ -11,6 +11,8 @@
 ///     - marks:                                     # diagnosis
 ///         - {t: 1.2, grade: severe}                # the recorded tip at t (s)
 ///         - {at: [0.0, 0.0, 6.9], t: 1.5, grade: mild}   # or an explicit tip position (mm)
+///       buttons: {mild: 0, severe: 1}              # also: each press of device button 0 (1) in the
+///                                                  # recording is a mild (severe) mark at the tip
 ///       end: 2.0                                   # ends the case at t (s); unset: when the path ends
 ///       device: scripted:other.csv                 # this trial's own device (default: --device)
 ///
@@ -33,8 +35,9 @@ namespace cariesim::training {
 /// A diagnosis mark in an answers file.
 struct ScriptedMark {
   double t = 0.0;           ///< s, servo time of the press
-  std::optional<Vec3> at;   ///< mm, world; unset: the recorded graphic tip at t
+  std::optional<Vec3> at;   ///< mm, world; unset: the recorded graphic tip at t (and its contact)
   Grade grade = Grade::Mild;
+  bool contact = true;      ///< from the recording for a recorded tip; true for an explicit `at`
 };
 
 /// One trial's entry of an answers file.
@@ -43,6 +46,9 @@ struct ScriptedTrial {
   std::map<std::string, std::map<std::string, double>> tuning;  ///< level -> parameter -> value
   std::vector<std::string> shapes;
   std::vector<ScriptedMark> marks;
+  /// Device buttons whose presses in the recording are marks (marks_from_buttons); -1: none.
+  int mild_button = -1;
+  int severe_button = -1;
   std::optional<double> end;  ///< s
   std::string device;         ///< empty: the run's device
 };

@@ -54,6 +54,9 @@ struct Mark {
   Vec3 tip = Vec3::Zero();  ///< mm, world: the graphic tool's tip (tool-frame origin)
   Grade grade = Grade::Mild;
   double t = 0.0;           ///< s, servo time of the press (the recording's clock)
+  /// The tool touched something when the mark was made (ServoSnapshot::out.contacts > 0): a mark
+  /// made in the air detects nothing (it is a false mark), however close above a lesion.
+  bool contact = true;
 };
 
 /// The participant's answers to one trial, as the run collected them (trials.answers as JSON).
@@ -132,9 +135,10 @@ class StudyRun {
   /// Boundary: names the shape of cube `cube` (0-based, setup().cubes order); a later call replaces
   /// it. Throws cariesim::Error for a cube out of range or a name not in setup().shape_choices.
   void name_shape(int cube, const std::string& shape);
-  /// Diagnosis: a mark at the tip (mm, world) graded mild/severe at servo time t (s). Throws
-  /// cariesim::Error for a non-finite tip or time, or after end_case().
-  void mark(const Vec3& tip, Grade grade, double t);
+  /// Diagnosis: a mark at the tip (mm, world) graded mild/severe at servo time t (s); `contact`:
+  /// the tool touched something then (Mark::contact). Throws cariesim::Error for a non-finite tip
+  /// or time, or after end_case().
+  void mark(const Vec3& tip, Grade grade, double t, bool contact = true);
   /// Diagnosis: the participant ends the case at servo time t (s).
   void end_case(double t);
   /// The answers so far.

@@ -32,6 +32,11 @@ struct MarkJudgement {
   bool first = false;     ///< the first mark on that lesion (later ones neither count nor are false)
 };
 
+/// The marks a recording's device buttons made (docs/training.md, "answers files"): a press (the
+/// button's bit going from 0 to 1) of `mild_button` or `severe_button` (bit indices, 0-31) is a mark
+/// of that grade at the sample's graphic tip and time. A button index < 0 is not used.
+std::vector<Mark> marks_from_buttons(const Recording& recording, int mild_button, int severe_button);
+
 /// Judges each mark against the lesions (docs/training.md, "detection").
 std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std::vector<ScoredLesion>& lesions,
                                        double margin);

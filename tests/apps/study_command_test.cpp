@@ -1,0 +1,109 @@
+// `cariesim study` (apps/cariesim/study_command.cpp): the examples of docs/cli.md run as written
+// (from the repository's root, the database in a scratch folder), and the command's errors.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "apps/apps_support.hpp"
+#include "support/files.hpp"
+
+namespace cariesim::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+class StudyCommand : public ScratchTest {
+ protected:
+  StudyCommand() : ScratchTest("cariesim_study_") {}
+};
+
+// The `cariesim study` command lines of the first ```sh block after the section's heading, without
+// their trailing `# comments`.
+std::vector<std::string> study_examples(const std::string& doc) {
+  std::vector<std::string> commands;
+  const std::size_t section = doc.find("## `cariesim study");
+  if (section == std::string::npos) return commands;
+  const std::size_t open = doc.find("```sh\n", section);
+  const std::size_t close = doc.find("```", open + 6);
+  std::istringstream block(doc.substr(open + 6, close - open - 6));
+  std::string line;
+  while (std::getline(block, line)) {
+    if (const std::size_t hash = line.find(" #"); hash != std::string::npos) line.erase(hash);
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    if (line.rfind("cariesim study", 0) == 0) commands.push_back(line);
+  }
+  return commands;
+}
+
+// Runs `command` (a line starting with "cariesim") from the repository's root, with `--out class.db`
+// pointed into `dir`; returns the exit status, the output in `out`.
+int run_example(std::string command, const fs::path& dir, std::string& out) {
+  const std::string db = " --out class.db";
+  if (const std::size_t at = command.find(db); at != std::string::npos)
+    command.replace(at, db.size(), " --out '" + (dir / "class.db").string() + "'");
+  command.replace(0, std::string("cariesim").size(), "'" + std::string(CARIESIM_EXE) + "'");
+  const fs::path log = dir / "example.txt";
+  const int raw = std::system(("cd '" + std::string(CARIESIM_SOURCE_DIR) + "' && " + command + " >'" +
+                               log.string() + "' 2>&1")
+                                  .c_str());
+  out = read_text(log);
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+}
+
+TEST_F(StudyCommand, TheDocExamplesRunAndFillOneDatabase) {
+  const std::vector<std::string> examples =
+      study_examples(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"));
+  ASSERT_EQ(examples.size(), 5u) << "docs/cli.md has the `cariesim study` example block";
+  for (const std::string& command : examples) {
+    SCOPED_TRACE(command);
+    std::string out;
+    EXPECT_EQ(run_example(command, dir_, out), 0) << out;
+    if (command.find("study list") != std::string::npos) {
+      EXPECT_NE(out.find("boundary-shapes"), std::string::npos);
+    }
+    if (command.find("study check") != std::string::npos) {
+      EXPECT_NE(out.find("ok: diagnosis"), std::string::npos);
+    }
+  }
+  // Two boundary trials (both right), two tuning trials and one diagnosis case, with their recordings.
+  ASSERT_TRUE(fs::exists(dir_ / "class.db"));
+  std::size_t recordings = 0;
+  for (const auto& entry : fs::directory_iterator(dir_ / "class-recordings"))
+    recordings += entry.path().extension() == ".db" ? 1 : 0;
+  EXPECT_EQ(recordings, 5u);
+}
+
+TEST_F(StudyCommand, ErrorsNameTheFileAndPlace) {
+  // A study file with an unknown key.
+  const fs::path study = dir_ / "bad.yaml";
+  std::ofstream(study) << "kind: boundary-shapes\nboundary:\n  cubes: [1, 2, 3]\n";
+  CommandResult r = run_cariesim("study check '" + study.string() + "'", dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("bad.yaml:3:3"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cubes"), std::string::npos) << r.err;
+  // Answers that do not fit the trial.
+  const fs::path answers = dir_ / "answers.yaml";
+  std::ofstream(answers) << "trials:\n  - shapes: [square]\n";
+  r = run_cariesim("study run '" + (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
+                       "' --participant P01 --answers '" + answers.string() + "' --out '" + (dir_ / "x.db").string() +
+                       "' --duration 0.05 --quiet",
+                   dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("answers.yaml:2:5"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 shapes named for 3 cubes"), std::string::npos) << r.err;
+  // A participant id with a space.
+  r = run_cariesim("study run boundary-shapes --participant 'P 1' --answers '" + answers.string() + "' --out '" +
+                       (dir_ / "y.db").string() + "'",
+                   dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("participant 'P 1'"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace cariesim::test
