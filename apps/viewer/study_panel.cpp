@@ -183,12 +183,13 @@ void ViewerApp::submit_shapes() {
 }
 
 void ViewerApp::study_mark() {
-  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the chosen grade.
+  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the chosen grade and
+  // whether the tool touched anything then (a mark in the air detects nothing).
   if (!trial_live() || !have_snapshot_ || run_->setup().kind != training::StudyKind::Diagnosis) return;
   if (run_->answers().ended_at) return;
   const training::Grade grade = grade_choice_ == 0 ? training::Grade::Mild : training::Grade::Severe;
   try {
-    run_->mark(snapshot_.out.graphic.p, grade, snapshot_.t);
+    run_->mark(snapshot_.out.graphic.p, grade, snapshot_.t, snapshot_.out.contacts > 0);
   } catch (const Error& e) {
     study_message_ = e.what();
     study_message_is_error_ = true;
@@ -226,7 +227,11 @@ void ViewerApp::play_answers() {
   while (answer_mark_next_ < entry.marks.size() && entry.marks[answer_mark_next_].t <= t) {
     const training::ScriptedMark& m = entry.marks[answer_mark_next_++];
     try {
-      run_->mark(m.at.value_or(snapshot_.out.graphic.p), m.grade, t);
+      // An explicit point counts as touched (as `cariesim study run` takes it); else the tip's contact.
+      if (m.at)
+        run_->mark(*m.at, m.grade, t, m.contact);
+      else
+        run_->mark(snapshot_.out.graphic.p, m.grade, t, snapshot_.out.contacts > 0);
     } catch (const Error& e) {
       study_message_ = e.what();
       study_message_is_error_ = true;
