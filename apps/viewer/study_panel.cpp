@@ -93,9 +93,19 @@ void ViewerApp::start_study(const std::string& participant) {
 void ViewerApp::begin_trial() {
   // The run's next trial (its row is committed, ended_at NULL), then its scene on the worker thread;
   // the trial's session starts, recording, when the scene is ready (poll_build).
-  const training::TrialSetup& setup = run_->begin_trial();
   have_snapshot_ = false;
-  const training::TrialSetup copy = setup;
+  training::TrialSetup copy;
+  try {
+    copy = run_->begin_trial();
+  } catch (const Error& e) {
+    // The database refused the row (or the trial cannot be made): said in the panel and on stderr.
+    study_message_ = locked() ? std::string("The next trial could not begin; please call the instructor.")
+                              : std::string("The next trial could not begin: ") + e.what();
+    study_message_is_error_ = true;
+    std::fprintf(stderr, "run: the next trial could not begin: %s\n", e.what());
+    return;
+  }
+  const training::TrialSetup& setup = copy;
   request_build(
       fmt::format("trial {} of {}", setup.index + 1, run_->trial_count()), [copy] { return copy.scene(); },
       true);
@@ -173,12 +183,13 @@ void ViewerApp::submit_shapes() {
 }
 
 void ViewerApp::study_mark() {
-  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the chosen grade.
+  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the chosen grade and
+  // whether the tool touched anything then (a mark in the air detects nothing).
   if (!trial_live() || !have_snapshot_ || run_->setup().kind != training::StudyKind::Diagnosis) return;
   if (run_->answers().ended_at) return;
   const training::Grade grade = grade_choice_ == 0 ? training::Grade::Mild : training::Grade::Severe;
   try {
-    run_->mark(snapshot_.out.graphic.p, grade, snapshot_.t);
+    run_->mark(snapshot_.out.graphic.p, grade, snapshot_.t, snapshot_.out.contacts > 0);
   } catch (const Error& e) {
     study_message_ = e.what();
     study_message_is_error_ = true;
@@ -216,7 +227,11 @@ void ViewerApp::play_answers() {
   while (answer_mark_next_ < entry.marks.size() && entry.marks[answer_mark_next_].t <= t) {
     const training::ScriptedMark& m = entry.marks[answer_mark_next_++];
     try {
-      run_->mark(m.at.value_or(snapshot_.out.graphic.p), m.grade, t);
+      // An explicit point counts as touched (as `cariesim study run` takes it); else the tip's contact.
+      if (m.at)
+        run_->mark(*m.at, m.grade, t, m.contact);
+      else
+        run_->mark(snapshot_.out.graphic.p, m.grade, t, snapshot_.out.contacts > 0);
     } catch (const Error& e) {
       study_message_ = e.what();
       study_message_is_error_ = true;

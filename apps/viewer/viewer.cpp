@@ -418,8 +418,11 @@ int ViewerApp::run() {
   // A course starts its study once the participant is known (given, or typed in the panel).
   if (!course_)
     request_build(options_.scene);
-  else if (!options_.participant.empty())
+  else if (!options_.participant.empty()) {
+    // Given on the command line, a study that cannot start (its database) ends the run with the reason.
     start_study(options_.participant);
+    if (!run_) throw Error(study_message_);
+  }
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
