@@ -26,22 +26,22 @@ struct StudyRunArgs {
   std::string out;
   std::string station;
   uint64_t seed = 0;
-  int trials = 0;          // 0: the study's
-  double duration = 0.0;   // s per trial when the device does not end
+  int trials = 0;         // 0: the study's
+  double duration = 0.0;  // s per trial when the device does not end
   bool quiet = false;
 };
 
 // One line per study: its name, kind, trial count and description.
 void print_study_line(const training::Study& s) {
-  std::printf("%-18s %-16s %3d trials  %s\n", s.name.c_str(), std::string(training::study_kind_name(s.kind)).c_str(),
-              s.trials, s.description.c_str());
+  std::printf("%-18s %-16s %3d trials  %s\n", s.name.c_str(),
+              std::string(training::study_kind_name(s.kind)).c_str(), s.trials, s.description.c_str());
 }
 
 // "check": what the study asks, after it parsed and its first trial could be made.
 void print_check(const training::Study& s) {
   std::printf("ok: %s (%s)\n", s.name.c_str(), s.origin.c_str());
-  std::printf("kind %s, %d trials, seed %s\n", std::string(training::study_kind_name(s.kind)).c_str(), s.trials,
-              s.seed ? std::to_string(*s.seed).c_str() : "drawn per run");
+  std::printf("kind %s, %d trials, seed %s\n", std::string(training::study_kind_name(s.kind)).c_str(),
+              s.trials, s.seed ? std::to_string(*s.seed).c_str() : "drawn per run");
   switch (s.kind) {
     case training::StudyKind::Tuning:
       std::printf("  scene %s, lesion %s, levels:", s.tuning.scene.c_str(), s.tuning.lesion.c_str());
@@ -51,10 +51,11 @@ void print_check(const training::Study& s) {
         std::printf("  slider %-5s [%g, %g] %s\n", p.name.c_str(), p.min, p.max, p.unit.c_str());
       break;
     case training::StudyKind::Boundary:
-      std::printf("  %zu cubes %g x %g x %g mm, %g mm apart; shapes %g mm, %g mm deep, mu_s %g mu_d %g, %g N/mm\n",
-                  s.boundary.shapes.size(), s.boundary.cube.x(), s.boundary.cube.y(), s.boundary.cube.z(),
-                  s.boundary.spacing, s.boundary.shape_size, s.boundary.depth, s.boundary.mu_s, s.boundary.mu_d,
-                  s.boundary.stiffness);
+      std::printf(
+          "  %zu cubes %g x %g x %g mm, %g mm apart; shapes %g mm, %g mm deep, mu_s %g mu_d %g, %g N/mm\n",
+          s.boundary.shapes.size(), s.boundary.cube.x(), s.boundary.cube.y(), s.boundary.cube.z(),
+          s.boundary.spacing, s.boundary.shape_size, s.boundary.depth, s.boundary.mu_s, s.boundary.mu_d,
+          s.boundary.stiffness);
       break;
     case training::StudyKind::Diagnosis:
       std::printf("  scene %s, %zu sites, %zu listed cases%s, time limit %g s, detection margin %g mm\n",
@@ -93,15 +94,16 @@ int run_study(const StudyRunArgs& args) {
                  args.participant.c_str(), run.trial_count(), static_cast<unsigned long long>(run.seed()),
                  args.out.c_str());
   const auto results = training::run_headless(run, answers, headless);
-  std::printf("%s: %zu trials of %s for %s written to %s\n", study.name.c_str(), results.size(), study.name.c_str(),
-              args.participant.c_str(), args.out.c_str());
+  std::printf("%s: %zu trials of %s for %s written to %s\n", study.name.c_str(), results.size(),
+              study.name.c_str(), args.participant.c_str(), args.out.c_str());
   return 0;
 }
 
 }  // namespace
 
 void register_study(CLI::App& app, Registry& registry) {
-  auto* study = app.add_subcommand("study", "Training studies: run one headless, check a study file, list the built-ins");
+  auto* study = app.add_subcommand(
+      "study", "Training studies: run one headless, check a study file, list the built-ins");
   study->require_subcommand(1);
 
   auto args = std::make_shared<StudyRunArgs>();
@@ -115,14 +117,16 @@ void register_study(CLI::App& app, Registry& registry) {
   run->add_option("--station", args->station, "station name in the database (default: the host name)");
   run->add_option("--seed", args->seed, "study seed, 1 to 2^63-1 (default: the study's, else drawn)")
       ->check(CLI::Range(uint64_t{1}, (uint64_t{1} << 63) - 1));
-  run->add_option("--trials", args->trials, "number of trials (default: the study's)")->check(CLI::Range(1, 1000));
+  run->add_option("--trials", args->trials, "number of trials (default: the study's)")
+      ->check(CLI::Range(1, 1000));
   run->add_option("--duration", args->duration, "seconds per trial when the device does not end (default 1)")
       ->check(finite_range(0.0, 3600.0));
   run->add_flag("--quiet", args->quiet, "only the final line");
   registry.add(run, [args] { return run_study(*args); });
 
   auto target = std::make_shared<std::string>();
-  auto* check = study->add_subcommand("check", "Validate a study file or built-in study (makes its first trial)");
+  auto* check =
+      study->add_subcommand("check", "Validate a study file or built-in study (makes its first trial)");
   check->add_option("study", *target, "a study YAML file or a built-in study name")->required();
   registry.add(check, [target] {
     const training::Study s = training::load_study(*target);
@@ -133,7 +137,8 @@ void register_study(CLI::App& app, Registry& registry) {
 
   auto* list = study->add_subcommand("list", "List the built-in studies");
   registry.add(list, [] {
-    for (const std::string& name : training::builtin_study_names()) print_study_line(training::load_study(name));
+    for (const std::string& name : training::builtin_study_names())
+      print_study_line(training::load_study(name));
     return 0;
   });
 }

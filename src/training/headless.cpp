@@ -30,8 +30,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kMaxAnswerTime = 3600.0;   // s, latest time an answers file may name
-constexpr double kDefaultDuration = 1.0;    // s of a trial whose device does not end
+constexpr double kMaxAnswerTime = 3600.0;  // s, latest time an answers file may name
+constexpr double kDefaultDuration = 1.0;   // s of a trial whose device does not end
 
 // A device spec with a relative FILE (scripted:FILE, replay:FILE) taken from the answers file's folder.
 std::string resolve_device(const std::string& spec, const fs::path& origin) {
@@ -45,7 +45,8 @@ std::string resolve_device(const std::string& spec, const fs::path& origin) {
 }
 
 // One entry of `trials`.
-ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::string& path, const fs::path& origin) {
+ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::string& path,
+                         const fs::path& origin) {
   const Fields f(r, node, path, {"tuning", "shapes", "marks", "buttons", "end", "device"});
   ScriptedTrial t;
   t.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
@@ -53,7 +54,8 @@ ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::str
     const Fields levels(r, n, f.sub("tuning"), {"mild", "severe"});
     for (const std::string_view level : {"mild", "severe"}) {
       if (!levels.has(level)) continue;
-      const Fields values(r, levels.get(level), levels.sub(level), {kScoreMuS, kScoreMuD, kScoreKc, kScoreKe});
+      const Fields values(r, levels.get(level), levels.sub(level),
+                          {kScoreMuS, kScoreMuD, kScoreKc, kScoreKe});
       for (const std::string_view name : {kScoreMuS, kScoreMuD, kScoreKc, kScoreKe}) {
         if (values.has(name))
           t.tuning[std::string(level)][std::string(name)] = r.number(values.get(name), values.sub(name));
@@ -72,20 +74,23 @@ ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::str
       ScriptedMark mark;
       mark.t = r.number_in(m.require("t"), m.sub("t"), 0.0, kMaxAnswerTime, "s");
       if (const auto at = m.get("at"); at.IsDefined()) mark.at = r.vec3(at, m.sub("at"));
-      mark.grade = r.choice(m.require("grade"), m.sub("grade"), "grade", {"mild", "severe"}) == 0 ? Grade::Mild
-                                                                                                 : Grade::Severe;
+      mark.grade = r.choice(m.require("grade"), m.sub("grade"), "grade", {"mild", "severe"}) == 0
+                       ? Grade::Mild
+                       : Grade::Severe;
       t.marks.push_back(mark);
     }
   }
   if (const auto n = f.get("buttons"); n.IsDefined()) {
     const Fields b(r, n, f.sub("buttons"), {"mild", "severe"});
-    if (const auto m = b.get("mild"); m.IsDefined()) t.mild_button = static_cast<int>(r.integer_in(m, b.sub("mild"), 0, 31));
+    if (const auto m = b.get("mild"); m.IsDefined())
+      t.mild_button = static_cast<int>(r.integer_in(m, b.sub("mild"), 0, 31));
     if (const auto m = b.get("severe"); m.IsDefined())
       t.severe_button = static_cast<int>(r.integer_in(m, b.sub("severe"), 0, 31));
     if (t.mild_button >= 0 && t.mild_button == t.severe_button)
       r.fail(n, f.sub("buttons"), "mild and severe need two different buttons");
   }
-  if (const auto n = f.get("end"); n.IsDefined()) t.end = r.number_in(n, f.sub("end"), 0.0, kMaxAnswerTime, "s");
+  if (const auto n = f.get("end"); n.IsDefined())
+    t.end = r.number_in(n, f.sub("end"), 0.0, kMaxAnswerTime, "s");
   if (const auto n = f.get("device"); n.IsDefined()) {
     t.device = r.text(n, f.sub("device"));
     if (t.device.empty()) r.fail(n, f.sub("device"), "empty device spec");
@@ -96,7 +101,8 @@ ScriptedTrial read_trial(const Reader& r, const YAML::Node& node, const std::str
 
 // The recorded sample nearest to time t (s).
 const ServoSample& recorded_sample(const Recording& rec, double t, const SourceLoc& where) {
-  if (rec.samples.empty()) throw Error(fmt::format("{}: a mark at t = {} s, but the trial recorded no motion", where.str(), t));
+  if (rec.samples.empty())
+    throw Error(fmt::format("{}: a mark at t = {} s, but the trial recorded no motion", where.str(), t));
   const ServoSample* best = &rec.samples.front();
   for (const ServoSample& s : rec.samples)
     if (std::abs(s.t - t) < std::abs(best->t - t)) best = &s;
@@ -150,11 +156,13 @@ ScriptedAnswers load_answers(const fs::path& file) {
   return parse_answers(text.str(), file);
 }
 
-std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers, const HeadlessOptions& options) {
+std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers,
+                                      const HeadlessOptions& options) {
   std::vector<TrialResult> results;
   while (!run.finished()) {
     const TrialSetup& setup = run.begin_trial();
-    const std::size_t entry_index = std::min<std::size_t>(static_cast<std::size_t>(setup.index), answers.trials.size() - 1);
+    const std::size_t entry_index =
+        std::min<std::size_t>(static_cast<std::size_t>(setup.index), answers.trials.size() - 1);
     const ScriptedTrial& entry = answers.trials[entry_index];
     const std::string context = fmt::format("trial {} ({})", setup.index + 1, entry.where.str());
     try {
@@ -169,7 +177,8 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
         session_options.recorder.soft_tissue_threshold = *run.study().scoring.soft_tissue_threshold;
       Session session(model, session_options);
       const std::string& device = session.device_info().name;
-      const bool ends = (device == "scripted" || device == "replay") && !session_options.device.ends_with(":loop");
+      const bool ends =
+          (device == "scripted" || device == "replay") && !session_options.device.ends_with(":loop");
       double limit = std::numeric_limits<double>::infinity();
       if (setup.time_limit > 0.0) limit = setup.time_limit;
       if (entry.end) limit = std::min(limit, *entry.end);
@@ -193,7 +202,8 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
         case StudyKind::Boundary:
           if (entry.shapes.size() != setup.cubes.size())
             throw Error(fmt::format("{} shapes named for {} cubes", entry.shapes.size(), setup.cubes.size()));
-          for (std::size_t i = 0; i < entry.shapes.size(); ++i) run.name_shape(static_cast<int>(i), entry.shapes[i]);
+          for (std::size_t i = 0; i < entry.shapes.size(); ++i)
+            run.name_shape(static_cast<int>(i), entry.shapes[i]);
           break;
         case StudyKind::Diagnosis: {
           // The file's marks and the recorded button presses, in time order.
@@ -204,7 +214,8 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
                            [](const ScriptedMark& a, const ScriptedMark& b) { return a.t < b.t; });
           for (const ScriptedMark& m : marks) {
             // A mark after the case's time ran out, or after its end, is not made.
-            if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end)) continue;
+            if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end))
+              continue;
             if (m.at) {
               run.mark(*m.at, m.grade, m.t, m.contact);
             } else {

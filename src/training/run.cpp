@@ -41,7 +41,8 @@ void check_participant(const std::string& id) {
     throw Error(fmt::format("participant '{}': longer than {} characters", id, kMaxParticipantLength));
   for (const char c : id) {
     const bool ok = std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.';
-    if (!ok) throw Error(fmt::format("participant '{}': only letters, digits, '-', '_' and '.' are allowed", id));
+    if (!ok)
+      throw Error(fmt::format("participant '{}': only letters, digits, '-', '_' and '.' are allowed", id));
   }
 }
 
@@ -96,7 +97,8 @@ void open_study_database(Database& db) {
 }
 
 // The answers of a trial as trials.answers (docs/training.md, "the study database").
-std::string answers_json(const TrialSetup& setup, const TrialAnswers& a, const std::vector<MarkJudgement>& judged) {
+std::string answers_json(const TrialSetup& setup, const TrialAnswers& a,
+                         const std::vector<MarkJudgement>& judged) {
   JsonWriter w;
   w.begin_object();
   switch (setup.kind) {
@@ -165,7 +167,8 @@ std::string scores_json(const std::vector<Score>& scores) {
   for (const Score& s : scores) {
     auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& x) { return x.first == s.name; });
     if (g == groups.end()) g = groups.insert(groups.end(), {s.name, {}});
-    auto l = std::find_if(g->second.begin(), g->second.end(), [&](const auto& x) { return x.first == s.level; });
+    auto l =
+        std::find_if(g->second.begin(), g->second.end(), [&](const auto& x) { return x.first == s.level; });
     if (l == g->second.end()) l = g->second.insert(g->second.end(), {s.level, {}});
     l->second.push_back(s.value);
   }
@@ -206,7 +209,8 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
   if (options_.recordings.empty()) options_.recordings = options_.database.stem().string() + "-recordings";
   if (options_.database.empty()) throw Error("study database: required (e.g. --out class.db)");
   trial_count_ = options_.trials.value_or(study_.trials);
-  if (trial_count_ < 1) throw Error(fmt::format("trials: {} is not a trial count (at least 1)", trial_count_));
+  if (trial_count_ < 1)
+    throw Error(fmt::format("trials: {} is not a trial count (at least 1)", trial_count_));
   std::error_code ec;
   if (const fs::path dir = options_.database.parent_path(); !dir.empty() && !fs::is_directory(dir, ec))
     throw Error(fmt::format("{}: the folder {} does not exist", options_.database.string(), dir.string()));
@@ -236,9 +240,10 @@ const TrialSetup& StudyRun::begin_trial() {
   Database& db = db_->db;
   db.exec("BEGIN IMMEDIATE", "cannot begin a trial");
   try {
-    Statement insert(db,
-                     "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
-                     " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, NULL, NULL, '{}', '{}')");
+    Statement insert(
+        db,
+        "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
+        " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, NULL, NULL, '{}', '{}')");
     insert.bind(0, options_.station);
     insert.bind(1, options_.participant);
     insert.bind(2, study_.name);
@@ -254,7 +259,8 @@ const TrialSetup& StudyRun::begin_trial() {
     fs::path relative;
     for (int n = 1;; ++n) {
       const std::string suffix = n == 1 ? "" : fmt::format("-{}", n);
-      relative = options_.recordings / fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
+      relative =
+          options_.recordings / fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
       recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
       std::error_code ec;
       if (!fs::exists(recording_path_, ec)) break;
@@ -271,8 +277,8 @@ const TrialSetup& StudyRun::begin_trial() {
   std::error_code ec;
   fs::create_directories(recording_path_.parent_path(), ec);
   if (ec)
-    throw Error(fmt::format("{}: cannot create the recordings folder: {}", recording_path_.parent_path().string(),
-                            ec.message()));
+    throw Error(fmt::format("{}: cannot create the recordings folder: {}",
+                            recording_path_.parent_path().string(), ec.message()));
   in_trial_ = true;
   return setup_;
 }
@@ -284,18 +290,21 @@ std::optional<Grade> StudyRun::current_level() const {
 
 void StudyRun::confirm_tuning(const std::map<std::string, double>& values, double t) {
   const std::optional<Grade> level = current_level();
-  if (!level) throw Error(in_trial_ && setup_.kind == StudyKind::Tuning ? "tuning: every level is confirmed"
-                                                                        : "tuning: no tuning trial in progress");
+  if (!level)
+    throw Error(in_trial_ && setup_.kind == StudyKind::Tuning ? "tuning: every level is confirmed"
+                                                              : "tuning: no tuning trial in progress");
   // Every slider once, finite and within its range; nothing else.
   for (const auto& [name, value] : values) {
     const auto p = std::find_if(setup_.parameters.begin(), setup_.parameters.end(),
                                 [&](const TunedParameter& q) { return q.name == name; });
-    if (p == setup_.parameters.end()) throw Error(fmt::format("tuning: '{}' is not tuned in this study", name));
+    if (p == setup_.parameters.end())
+      throw Error(fmt::format("tuning: '{}' is not tuned in this study", name));
     if (!std::isfinite(value) || value < p->min || value > p->max)
       throw Error(fmt::format("tuning: {} = {} is outside its slider [{}, {}]", name, value, p->min, p->max));
   }
   for (const TunedParameter& p : setup_.parameters)
-    if (!values.contains(p.name)) throw Error(fmt::format("tuning: no value for {} ({})", p.name, grade_name(*level)));
+    if (!values.contains(p.name))
+      throw Error(fmt::format("tuning: no value for {} ({})", p.name, grade_name(*level)));
   if (!std::isfinite(t)) throw Error("tuning: the confirmation time is not finite");
   const std::string key(grade_name(*level));
   answers_.tuned[key] = values;
@@ -304,10 +313,12 @@ void StudyRun::confirm_tuning(const std::map<std::string, double>& values, doubl
 }
 
 void StudyRun::name_shape(int cube, const std::string& shape) {
-  if (!in_trial_ || setup_.kind != StudyKind::Boundary) throw Error("boundary: no boundary trial in progress");
+  if (!in_trial_ || setup_.kind != StudyKind::Boundary)
+    throw Error("boundary: no boundary trial in progress");
   if (cube < 0 || cube >= static_cast<int>(setup_.cubes.size()))
     throw Error(fmt::format("boundary: cube {} does not exist (0 to {})", cube, setup_.cubes.size() - 1));
-  if (std::find(setup_.shape_choices.begin(), setup_.shape_choices.end(), shape) == setup_.shape_choices.end()) {
+  if (std::find(setup_.shape_choices.begin(), setup_.shape_choices.end(), shape) ==
+      setup_.shape_choices.end()) {
     std::string names;
     for (const auto& s : setup_.shape_choices) names += (names.empty() ? "" : ", ") + s;
     throw Error(fmt::format("boundary: '{}' is not one of the shapes ({})", shape, names));
@@ -316,14 +327,17 @@ void StudyRun::name_shape(int cube, const std::string& shape) {
 }
 
 void StudyRun::mark(const Vec3& tip, Grade grade, double t, bool contact) {
-  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
+  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis)
+    throw Error("diagnosis: no diagnosis trial in progress");
   if (answers_.ended_at) throw Error("diagnosis: the case has ended; no more marks");
-  if (!tip.allFinite() || !std::isfinite(t)) throw Error("diagnosis: a mark needs a finite tip position and time");
+  if (!tip.allFinite() || !std::isfinite(t))
+    throw Error("diagnosis: a mark needs a finite tip position and time");
   answers_.marks.push_back({tip, grade, t, contact});
 }
 
 void StudyRun::end_case(double t) {
-  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis) throw Error("diagnosis: no diagnosis trial in progress");
+  if (!in_trial_ || setup_.kind != StudyKind::Diagnosis)
+    throw Error("diagnosis: no diagnosis trial in progress");
   if (!std::isfinite(t)) throw Error("diagnosis: the end time is not finite");
   if (!answers_.ended_at) answers_.ended_at = t;
 }
@@ -341,11 +355,12 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
       model = &*built;
     }
     if (model->lesions.size() != setup_.truth.lesions.size())
-      throw Error(fmt::format("study {}: the model has {} lesions, the trial {}", study_.name, model->lesions.size(),
-                              setup_.truth.lesions.size()));
+      throw Error(fmt::format("study {}: the model has {} lesions, the trial {}", study_.name,
+                              model->lesions.size(), setup_.truth.lesions.size()));
     for (std::size_t k = 0; k < model->lesions.size(); ++k) {
       const LesionModel& l = model->lesions[k];
-      lesions.push_back({l.shape, setup_.truth.lesions[k].severity, model->defaults.materials[l.material].f_p_star});
+      lesions.push_back(
+          {l.shape, setup_.truth.lesions[k].severity, model->defaults.materials[l.material].f_p_star});
     }
   }
   TrialResult result;
@@ -365,7 +380,8 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   if (!recording.empty()) {
     const fs::path base = fs::absolute(options_.database).parent_path().lexically_normal();
     const fs::path rel = fs::absolute(recording).lexically_normal().lexically_relative(base);
-    stored = (!rel.empty() && !rel.string().starts_with("..")) ? rel.string() : fs::absolute(recording).string();
+    stored =
+        (!rel.empty() && !rel.string().starts_with("..")) ? rel.string() : fs::absolute(recording).string();
     result.recording = stored;
   }
 
@@ -373,8 +389,9 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   Database& db = db_->db;
   db.exec("BEGIN IMMEDIATE", "cannot begin ending the trial");
   try {
-    Statement update(db,
-                     "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
+    Statement update(
+        db,
+        "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
     update.bind(0, utc_now_iso8601());
     update.bind(1, stored);
     update.bind(2, result.answers_json);

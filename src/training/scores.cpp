@@ -32,7 +32,8 @@ Score make(std::string_view name, std::string_view level, double value, std::str
 void tuning_scores(const TrialSetup& setup, const TrialAnswers& a, std::vector<Score>& out) {
   for (const Grade g : setup.levels) {
     const auto level = a.tuned.find(std::string(grade_name(g)));
-    if (level == a.tuned.end()) throw Error(fmt::format("tuning: the {} level was not confirmed", grade_name(g)));
+    if (level == a.tuned.end())
+      throw Error(fmt::format("tuning: the {} level was not confirmed", grade_name(g)));
     for (const TunedParameter& p : setup.parameters) {
       const auto v = level->second.find(p.name);
       if (v == level->second.end())
@@ -65,7 +66,8 @@ double case_time(const TrialAnswers& a, const Recording* recording) {
 // The lesion a sample presses on: the one its tip touches while sliding, else (the tool held off by
 // another contact) the nearest whose volume is within kBlockedReach of the graphic tip; -1 when none.
 int pressed_lesion(const ServoSample& s, const std::vector<ScoredLesion>& lesions) {
-  if (s.state == InteractionState::Inserting || s.state == InteractionState::Extracting || s.contacts == 0) return -1;
+  if (s.state == InteractionState::Inserting || s.state == InteractionState::Extracting || s.contacts == 0)
+    return -1;
   if (s.lesion >= 0) return static_cast<std::size_t>(s.lesion) < lesions.size() ? s.lesion : -1;
   int nearest = -1;
   double best = kBlockedReach;
@@ -119,7 +121,8 @@ void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAn
                       const Recording* recording, const std::vector<ScoredLesion>& lesions,
                       std::vector<Score>& out) {
   if (lesions.size() != setup.truth.lesions.size())
-    throw Error(fmt::format("diagnosis: {} lesions to score, the case has {}", lesions.size(), setup.truth.lesions.size()));
+    throw Error(fmt::format("diagnosis: {} lesions to score, the case has {}", lesions.size(),
+                            setup.truth.lesions.size()));
   const std::vector<MarkJudgement> judged = judge_marks(a.marks, lesions, study.diagnosis.detection_margin);
   std::size_t detected = 0;
   std::size_t graded_right = 0;
@@ -142,7 +145,9 @@ void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAn
   out.push_back(make(kScoreDetected, "", static_cast<double>(detected), kCount));
   out.push_back(make(kScoreMissed, "", static_cast<double>(n - detected), kCount));
   out.push_back(make(kScoreFalseMarks, "", static_cast<double>(false_marks), kCount));
-  if (n > 0) out.push_back(make(kScoreDetectionRate, "", static_cast<double>(detected) / static_cast<double>(n), kFraction));
+  if (n > 0)
+    out.push_back(
+        make(kScoreDetectionRate, "", static_cast<double>(detected) / static_cast<double>(n), kFraction));
   if (detected > 0)
     out.push_back(make(kScoreSeverityAccuracy, "",
                        static_cast<double>(graded_right) / static_cast<double>(detected), kFraction));
@@ -151,7 +156,8 @@ void diagnosis_scores(const Study& study, const TrialSetup& setup, const TrialAn
   if (recording != nullptr) {
     const std::vector<Score> motion = motion_scores(*recording, study.scoring);
     out.insert(out.end(), motion.begin(), motion.end());
-    out.push_back(make(kScoreBlockedInsertions, "", blocked_insertions(*recording, lesions, study.scoring), kCount));
+    out.push_back(
+        make(kScoreBlockedInsertions, "", blocked_insertions(*recording, lesions, study.scoring), kCount));
   }
 }
 
@@ -173,8 +179,8 @@ std::vector<Mark> marks_from_buttons(const Recording& recording, int mild_button
   return marks;
 }
 
-std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std::vector<ScoredLesion>& lesions,
-                                       double margin) {
+std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks,
+                                       const std::vector<ScoredLesion>& lesions, double margin) {
   // Each mark made in contact goes to the nearest lesion volume within the margin; only a lesion's
   // first mark counts.
   std::vector<MarkJudgement> out;
@@ -222,17 +228,25 @@ std::vector<Score> motion_scores(const Recording& recording, const ScoringDesc& 
       if (hard > scoring.enamel_force_limit) hard_time += dt;
     }
   }
-  return {make(kScoreSoftTissueTime, "", soft_time, kSeconds), make(kScoreSoftTissuePeak, "", soft_peak, kNewtons),
-          make(kScoreEnamelExcessTime, "", hard_time, kSeconds), make(kScoreEnamelPeak, "", hard_peak, kNewtons)};
+  return {make(kScoreSoftTissueTime, "", soft_time, kSeconds),
+          make(kScoreSoftTissuePeak, "", soft_peak, kNewtons),
+          make(kScoreEnamelExcessTime, "", hard_time, kSeconds),
+          make(kScoreEnamelPeak, "", hard_peak, kNewtons)};
 }
 
 std::vector<Score> compute_scores(const Study& study, const TrialSetup& setup, const TrialAnswers& answers,
                                   const Recording* recording, const std::vector<ScoredLesion>& lesions) {
   std::vector<Score> out;
   switch (setup.kind) {
-    case StudyKind::Tuning: tuning_scores(setup, answers, out); break;
-    case StudyKind::Boundary: boundary_scores(setup, answers, out); break;
-    case StudyKind::Diagnosis: diagnosis_scores(study, setup, answers, recording, lesions, out); break;
+    case StudyKind::Tuning:
+      tuning_scores(setup, answers, out);
+      break;
+    case StudyKind::Boundary:
+      boundary_scores(setup, answers, out);
+      break;
+    case StudyKind::Diagnosis:
+      diagnosis_scores(study, setup, answers, recording, lesions, out);
+      break;
   }
   return out;
 }

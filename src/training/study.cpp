@@ -27,16 +27,16 @@ using scene_detail::Reader;
 
 namespace {
 
-constexpr int kMaxTrials = 1000;       // trials per participant a study may ask for
-constexpr double kMaxLength = 1000.0;  // mm, largest size of anything a study places
-constexpr double kMaxTimeLimit = 3600.0;  // s, longest diagnosis case
+constexpr int kMaxTrials = 1000;                        // trials per participant a study may ask for
+constexpr double kMaxLength = 1000.0;                   // mm, largest size of anything a study places
+constexpr double kMaxTimeLimit = 3600.0;                // s, longest diagnosis case
 constexpr uint64_t kMaxSeed = (uint64_t{1} << 63) - 1;  // seeds are stored in SQLite's signed INTEGER
 
 // Slider bounds a tuning parameter may have (the engine's check_material accepts these).
 struct ParamBounds {
   std::string_view name;
   std::string_view unit;
-  double lo, hi;              // what a slider may span
+  double lo, hi;                    // what a slider may span
   double default_min, default_max;  // the slider when the study file does not say
 };
 constexpr ParamBounds kTunable[] = {
@@ -87,9 +87,10 @@ void read_tuning(const Reader& r, const YAML::Node& node, const std::string& pat
       auto it = std::find_if(t.parameters.begin(), t.parameters.end(),
                              [&](const TunedParameter& q) { return q.name == key; });
       if (it == t.parameters.end()) {
-        r.fail(p.get(key), p.sub(key),
-               fmt::format("not tuned with target '{}' (it tunes {} and {})",
-                           t.target == TuningTarget::Roughness ? "roughness" : "insertion", names[0], names[1]));
+        r.fail(
+            p.get(key), p.sub(key),
+            fmt::format("not tuned with target '{}' (it tunes {} and {})",
+                        t.target == TuningTarget::Roughness ? "roughness" : "insertion", names[0], names[1]));
       }
       const ParamBounds& b = *find_tunable(key);
       read_range(r, p.get(key), p.sub(key), b.lo, b.hi, b.unit, it->min, it->max);
@@ -100,8 +101,9 @@ void read_tuning(const Reader& r, const YAML::Node& node, const std::string& pat
     if (n.size() < 1 || n.size() > 2) r.fail(n, f.sub("levels"), "expected one or two levels");
     t.levels.clear();
     for (std::size_t i = 0; i < n.size(); ++i) {
-      const Grade g = r.choice(n[i], indexed(f.sub("levels"), i), "level", {"mild", "severe"}) == 0 ? Grade::Mild
-                                                                                                    : Grade::Severe;
+      const Grade g = r.choice(n[i], indexed(f.sub("levels"), i), "level", {"mild", "severe"}) == 0
+                          ? Grade::Mild
+                          : Grade::Severe;
       if (std::find(t.levels.begin(), t.levels.end(), g) != t.levels.end())
         r.fail(n[i], indexed(f.sub("levels"), i), "level listed twice");
       t.levels.push_back(g);
@@ -111,7 +113,8 @@ void read_tuning(const Reader& r, const YAML::Node& node, const std::string& pat
 
 // The `boundary` section.
 void read_boundary(const Reader& r, const YAML::Node& node, const std::string& path, BoundaryDesc& b) {
-  const Fields f(r, node, path, {"cube", "spacing", "shape_size", "depth", "mu_s", "mu_d", "stiffness", "shapes"});
+  const Fields f(r, node, path,
+                 {"cube", "spacing", "shape_size", "depth", "mu_s", "mu_d", "stiffness", "shapes"});
   if (const auto n = f.get("cube"); n.IsDefined()) {
     b.cube = r.vec3(n, f.sub("cube"));
     if (!(b.cube.minCoeff() > 0.0) || b.cube.maxCoeff() > kMaxLength)
@@ -128,7 +131,8 @@ void read_boundary(const Reader& r, const YAML::Node& node, const std::string& p
     if (n.size() < 2 || n.size() > 6) r.fail(n, f.sub("shapes"), "expected 2 to 6 shapes");
     b.shapes.clear();
     for (std::size_t i = 0; i < n.size(); ++i) {
-      const std::size_t k = r.choice(n[i], indexed(f.sub("shapes"), i), "shape", {"square", "triangle", "circle"});
+      const std::size_t k =
+          r.choice(n[i], indexed(f.sub("shapes"), i), "shape", {"square", "triangle", "circle"});
       b.shapes.emplace_back(std::array<std::string_view, 3>{"square", "triangle", "circle"}[k]);
     }
   }
@@ -145,7 +149,8 @@ void read_boundary(const Reader& r, const YAML::Node& node, const std::string& p
 }
 
 // One entry of `diagnosis.sites`, checked against the scene's objects.
-LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string& path, const SceneDesc& scene) {
+LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string& path,
+                     const SceneDesc& scene) {
   const Fields f(r, node, path, {"name", "object", "site", "at", "normal", "tangent", "snap_range", "shape"});
   LesionSite s;
   s.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
@@ -162,8 +167,9 @@ LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string&
   const ObjectDesc& o = scene.objects[static_cast<std::size_t>(object)];
   if (o.kind != ObjectKind::Rigid) r.fail(f.get("object"), f.sub("object"), "lesions need a rigid host");
   s.fdi = o.fdi;
-  s.site = r.choice(f.require("site"), f.sub("site"), "site", {"occlusal", "interproximal"}) == 0 ? "occlusal"
-                                                                                                   : "interproximal";
+  s.site = r.choice(f.require("site"), f.sub("site"), "site", {"occlusal", "interproximal"}) == 0
+               ? "occlusal"
+               : "interproximal";
   s.at = r.vec3(f.require("at"), f.sub("at"));
   if (s.at.cwiseAbs().maxCoeff() > 10.0 * kMaxLength) r.fail(f.get("at"), f.sub("at"), "point too far");
   s.normal = r.direction(f.require("normal"), f.sub("normal"));
@@ -176,7 +182,8 @@ LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string&
   }
   f.positive("snap_range", s.snap_range, 50.0, "mm");
   if (const auto n = f.get("shape"); n.IsDefined()) {
-    const std::size_t k = r.choice(n, f.sub("shape"), "lesion shape", {"disk", "stripe", "ellipsoid", "inverted-cone"});
+    const std::size_t k =
+        r.choice(n, f.sub("shape"), "lesion shape", {"disk", "stripe", "ellipsoid", "inverted-cone"});
     constexpr LesionShape::Kind kinds[] = {LesionShape::Kind::Disk, LesionShape::Kind::Stripe,
                                            LesionShape::Kind::Ellipsoid, LesionShape::Kind::InvertedCone};
     s.shape = kinds[k];
@@ -251,7 +258,8 @@ void read_diagnosis(const Reader& r, const YAML::Node& node, const std::string& 
   const Fields f(r, node, path, {"scene", "sites", "cases", "generate", "time_limit", "detection_margin"});
   if (const auto n = f.get("scene"); n.IsDefined()) d.scene = r.text(n, f.sub("scene"));
   d.scene = resolve_scene(d.scene, origin);
-  const SceneDesc scene = load_study_scene(r, f.has("scene") ? f.get("scene") : node, f.sub("scene"), d.scene);
+  const SceneDesc scene =
+      load_study_scene(r, f.has("scene") ? f.get("scene") : node, f.sub("scene"), d.scene);
   f.number_in("time_limit", d.time_limit, 0.0, kMaxTimeLimit, "s");
   f.number_in("detection_margin", d.detection_margin, 0.0, 10.0, "mm");
 
@@ -277,7 +285,8 @@ void read_diagnosis(const Reader& r, const YAML::Node& node, const std::string& 
       for (std::size_t k = 0; k < lesions.size(); ++k) {
         CaseLesion l = read_case_lesion(r, lesions[k], indexed(c.sub("lesions"), k), d.sites);
         if (!used.insert(l.site).second)
-          r.fail(lesions[k], indexed(c.sub("lesions"), k), fmt::format("site '{}' used twice in one case", l.site));
+          r.fail(lesions[k], indexed(c.sub("lesions"), k),
+                 fmt::format("site '{}' used twice in one case", l.site));
         list.push_back(std::move(l));
       }
       d.cases.push_back(std::move(list));
@@ -286,8 +295,9 @@ void read_diagnosis(const Reader& r, const YAML::Node& node, const std::string& 
   if (const auto n = f.get("generate"); n.IsDefined()) {
     d.generate = read_generator(r, n, f.sub("generate"));
     if (d.generate->min_count > static_cast<int>(d.sites.size()))
-      r.fail(n, f.sub("generate.count"),
-             fmt::format("at least {} lesions asked, but only {} sites", d.generate->min_count, d.sites.size()));
+      r.fail(
+          n, f.sub("generate.count"),
+          fmt::format("at least {} lesions asked, but only {} sites", d.generate->min_count, d.sites.size()));
   }
   if (d.cases.empty() && !d.generate) r.fail(node, path, "give `cases`, `generate` or both");
 }
@@ -304,9 +314,12 @@ void read_scoring(const Reader& r, const YAML::Node& node, const std::string& pa
 // The name of a kind as the study file writes it.
 std::string_view kind_key(StudyKind kind) {
   switch (kind) {
-    case StudyKind::Tuning: return "tuning";
-    case StudyKind::Boundary: return "boundary";
-    case StudyKind::Diagnosis: return "diagnosis";
+    case StudyKind::Tuning:
+      return "tuning";
+    case StudyKind::Boundary:
+      return "boundary";
+    case StudyKind::Diagnosis:
+      return "diagnosis";
   }
   return "";
 }
@@ -315,9 +328,12 @@ std::string_view kind_key(StudyKind kind) {
 
 std::string_view study_kind_name(StudyKind kind) {
   switch (kind) {
-    case StudyKind::Tuning: return kKindTuning;
-    case StudyKind::Boundary: return kKindBoundary;
-    case StudyKind::Diagnosis: return kKindDiagnosis;
+    case StudyKind::Tuning:
+      return kKindTuning;
+    case StudyKind::Boundary:
+      return kKindBoundary;
+    case StudyKind::Diagnosis:
+      return kKindDiagnosis;
   }
   return "";
 }
@@ -346,8 +362,8 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   }
   if (!root.IsDefined() || root.IsNull()) throw Error(fmt::format("{}: empty study file", origin.string()));
   const Fields f(r, root, "",
-                 {"name", "description", "format", "kind", "trials", "seed", "tuning", "boundary", "diagnosis",
-                  "scoring"});
+                 {"name", "description", "format", "kind", "trials", "seed", "tuning", "boundary",
+                  "diagnosis", "scoring"});
   Study s;
   s.origin = origin.string();
   s.source_hash = BuildKey().add(std::string(yaml)).value();
@@ -392,11 +408,13 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
         s.tuning.scene = s.tuning.target == TuningTarget::Roughness ? "friction-block" : "insertion-blocks";
       s.tuning.scene = resolve_scene(s.tuning.scene, origin);
       const SceneDesc scene = load_study_scene(r, n, f.sub("tuning.scene"), s.tuning.scene);
-      if (scene.lesions.empty()) r.fail(n, f.sub("tuning.scene"), fmt::format("scene {} has no lesion", scene.name));
+      if (scene.lesions.empty())
+        r.fail(n, f.sub("tuning.scene"), fmt::format("scene {} has no lesion", scene.name));
       if (s.tuning.lesion.empty()) s.tuning.lesion = scene.lesions.front().name;
       if (std::none_of(scene.lesions.begin(), scene.lesions.end(),
                        [&](const LesionDesc& l) { return l.name == s.tuning.lesion; }))
-        r.fail(n, f.sub("tuning.lesion"), fmt::format("no lesion '{}' in scene {}", s.tuning.lesion, scene.name));
+        r.fail(n, f.sub("tuning.lesion"),
+               fmt::format("no lesion '{}' in scene {}", s.tuning.lesion, scene.name));
       break;
     }
     case StudyKind::Boundary:

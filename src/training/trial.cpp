@@ -80,7 +80,8 @@ void make_boundary(const Study& study, Draws& draws, TrialSetup& t) {
   const double max_radius = std::min(8.0, 0.4 * b.cube.z());
   std::string yaml = fmt::format(
       "# {} trial {}: {} cubes hiding shapes in a drawn order (docs/training.md).\n"
-      "name: {}-trial{}\ndescription: Boundary shapes study cubes (paper section 4.2.2).\nformat: 1\n\nobjects:\n",
+      "name: {}-trial{}\ndescription: Boundary shapes study cubes (paper section 4.2.2).\nformat: "
+      "1\n\nobjects:\n",
       study.name, t.index + 1, n, study.name, t.index + 1);
   for (std::size_t i = 0; i < n; ++i) {
     const std::string name = fmt::format("cube{}", i + 1);
@@ -112,7 +113,8 @@ void make_boundary(const Study& study, Draws& draws, TrialSetup& t) {
 std::vector<CaseLesion> draw_case(const DiagnosisDesc& d, const CaseGenerator& g, Draws& draws) {
   const int max_count = std::min<int>(g.max_count, static_cast<int>(d.sites.size()));
   const int min_count = std::min(g.min_count, max_count);
-  const int count = min_count + static_cast<int>(draws.index(static_cast<std::size_t>(max_count - min_count + 1)));
+  const int count =
+      min_count + static_cast<int>(draws.index(static_cast<std::size_t>(max_count - min_count + 1)));
   std::vector<std::size_t> order(d.sites.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   draws.shuffle(order);
@@ -146,13 +148,16 @@ void make_diagnosis(const Study& study, Draws& draws, TrialSetup& t) {
   YAML::Node lesions(YAML::NodeType::Sequence);
   for (std::size_t k = 0; k < t.truth.lesions.size(); ++k) {
     const CaseLesion& c = t.truth.lesions[k];
-    const auto site = std::find_if(d.sites.begin(), d.sites.end(), [&](const LesionSite& s) { return s.name == c.site; });
-    if (site == d.sites.end()) throw Error(fmt::format("{}: case lesion at unknown site '{}'", study.origin, c.site));
+    const auto site =
+        std::find_if(d.sites.begin(), d.sites.end(), [&](const LesionSite& s) { return s.name == c.site; });
+    if (site == d.sites.end())
+      throw Error(fmt::format("{}: case lesion at unknown site '{}'", study.origin, c.site));
     YAML::Node l;
     l["name"] = fmt::format("lesion{}", k + 1);
     l["object"] = site->object;
     YAML::Node placement;
-    for (const auto& [key, v] : {std::pair{"at", site->at}, {"normal", site->normal}, {"tangent", site->tangent}}) {
+    for (const auto& [key, v] :
+         {std::pair{"at", site->at}, {"normal", site->normal}, {"tangent", site->tangent}}) {
       YAML::Node seq(YAML::NodeType::Sequence);
       for (int i = 0; i < 3; ++i) seq.push_back(v[i]);
       seq.SetStyle(YAML::EmitterStyle::Flow);
@@ -164,7 +169,8 @@ void make_diagnosis(const Study& study, Draws& draws, TrialSetup& t) {
     YAML::Node shape;
     shape["type"] = std::string(lesion_kind_name(site->shape));
     shape["size"] = c.size;
-    if (site->shape == LesionShape::Kind::Stripe || site->shape == LesionShape::Kind::Ellipsoid) shape["width"] = c.width;
+    if (site->shape == LesionShape::Kind::Stripe || site->shape == LesionShape::Kind::Ellipsoid)
+      shape["width"] = c.width;
     shape["depth"] = c.depth;
     shape.SetStyle(YAML::EmitterStyle::Flow);
     l["shape"] = shape;
@@ -193,9 +199,15 @@ TrialSetup make_trial(const Study& study, int index, uint64_t seed) {
   t.seed = seed;
   Draws draws(seed);
   switch (study.kind) {
-    case StudyKind::Tuning: make_tuning(study, draws, t); break;
-    case StudyKind::Boundary: make_boundary(study, draws, t); break;
-    case StudyKind::Diagnosis: make_diagnosis(study, draws, t); break;
+    case StudyKind::Tuning:
+      make_tuning(study, draws, t);
+      break;
+    case StudyKind::Boundary:
+      make_boundary(study, draws, t);
+      break;
+    case StudyKind::Diagnosis:
+      make_diagnosis(study, draws, t);
+      break;
   }
   // The scene must parse: a bad trial is reported here, naming the study, not when it is loaded.
   try {

@@ -49,9 +49,9 @@ int run_example(std::string command, const fs::path& dir, std::string& out) {
     command.replace(at, db.size(), " --out '" + (dir / "class.db").string() + "'");
   command.replace(0, std::string("cariesim").size(), "'" + std::string(CARIESIM_EXE) + "'");
   const fs::path log = dir / "example.txt";
-  const int raw = std::system(("cd '" + std::string(CARIESIM_SOURCE_DIR) + "' && " + command + " >'" +
-                               log.string() + "' 2>&1")
-                                  .c_str());
+  const int raw = std::system(
+      ("cd '" + std::string(CARIESIM_SOURCE_DIR) + "' && " + command + " >'" + log.string() + "' 2>&1")
+          .c_str());
   out = read_text(log);
   return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
 }
@@ -90,16 +90,17 @@ TEST_F(StudyCommand, ErrorsNameTheFileAndPlace) {
   // Answers that do not fit the trial.
   const fs::path answers = dir_ / "answers.yaml";
   std::ofstream(answers) << "trials:\n  - shapes: [square]\n";
-  r = run_cariesim("study run '" + (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
-                       "' --participant P01 --answers '" + answers.string() + "' --out '" + (dir_ / "x.db").string() +
-                       "' --duration 0.05 --quiet",
+  r = run_cariesim("study run '" +
+                       (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
+                       "' --participant P01 --answers '" + answers.string() + "' --out '" +
+                       (dir_ / "x.db").string() + "' --duration 0.05 --quiet",
                    dir_);
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("answers.yaml:2:5"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("1 shapes named for 3 cubes"), std::string::npos) << r.err;
   // A participant id with a space.
-  r = run_cariesim("study run boundary-shapes --participant 'P 1' --answers '" + answers.string() + "' --out '" +
-                       (dir_ / "y.db").string() + "'",
+  r = run_cariesim("study run boundary-shapes --participant 'P 1' --answers '" + answers.string() +
+                       "' --out '" + (dir_ / "y.db").string() + "'",
                    dir_);
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("participant 'P 1'"), std::string::npos) << r.err;

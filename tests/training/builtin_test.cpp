@@ -1,8 +1,7 @@
 // Each built-in study end to end headless, one trial each (their scenes are the built-in scenes the
 // other tests build, so the tree cache mostly hits): known answers, checked scores.
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <functional>
 
@@ -58,7 +57,8 @@ TEST(BuiltinHeadless, TuningAndTuningInsertionRecordTheConfirmedValues) {
 TEST(BuiltinHeadless, BoundaryShapesAllRightScoresThePoint) {
   const fs::path dir = test::scratch();
   const TrialResult r = run_one("boundary-shapes", dir / "class.db", [](const TrialSetup& t) {
-    return fmt::format("trials:\n  - shapes: [{}, {}, {}]\n", t.truth.shapes[0], t.truth.shapes[1], t.truth.shapes[2]);
+    return fmt::format("trials:\n  - shapes: [{}, {}, {}]\n", t.truth.shapes[0], t.truth.shapes[1],
+                       t.truth.shapes[2]);
   });
   EXPECT_EQ(score(r, kScoreBoundaryPoint), 1.0);
   EXPECT_EQ(score(r, kScoreShapeCorrect, "square"), 1.0);
@@ -75,8 +75,8 @@ TEST(BuiltinHeadless, DiagnosisMarksOnThePapersThreeLesionsDetectAndGradeThem) {
     const char* grades[] = {"severe", "severe", "severe"};
     for (std::size_t k = 0; k < model.lesions.size() && k < 3; ++k) {
       const Vec3 c = model.lesions[k].shape.center;
-      yaml += fmt::format("      - {{t: {}, at: [{}, {}, {}], grade: {}}}\n", 0.02 * static_cast<double>(k + 1), c.x(),
-                          c.y(), c.z(), grades[k]);
+      yaml += fmt::format("      - {{t: {}, at: [{}, {}, {}], grade: {}}}\n",
+                          0.02 * static_cast<double>(k + 1), c.x(), c.y(), c.z(), grades[k]);
     }
     yaml += "      - {t: 0.09, at: [-25.0, 10.0, 7.0], grade: mild}\n";
     return yaml;

@@ -2,9 +2,8 @@
 // recorded servo loop per trial, answers from a file, scores checked against the known answers.
 #include "cariesim/training/headless.hpp"
 
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <chrono>
 #include <fstream>
@@ -39,11 +38,13 @@ double score(const TrialResult& r, std::string_view name, std::string_view level
 
 // An answers file naming the shapes of every trial: the truth, except cube `wrong_cube` of trial
 // `wrong_trial`, which is given its neighbour's shape.
-ScriptedAnswers boundary_answers(const Study& study, uint64_t seed, int trials, int wrong_trial, int wrong_cube) {
+ScriptedAnswers boundary_answers(const Study& study, uint64_t seed, int trials, int wrong_trial,
+                                 int wrong_cube) {
   std::string yaml = "trials:\n";
   for (int i = 0; i < trials; ++i) {
     std::vector<std::string> shapes = make_trial(study, i, trial_seed(seed, i)).truth.shapes;
-    if (i == wrong_trial) shapes[static_cast<std::size_t>(wrong_cube)] = shapes[static_cast<std::size_t>(wrong_cube + 1) % 3];
+    if (i == wrong_trial)
+      shapes[static_cast<std::size_t>(wrong_cube)] = shapes[static_cast<std::size_t>(wrong_cube + 1) % 3];
     yaml += fmt::format("  - shapes: [{}, {}, {}]\n", shapes[0], shapes[1], shapes[2]);
   }
   return parse_answers(yaml, "answers.yaml");
@@ -96,7 +97,8 @@ TEST(Headless, TuningRecordsTheConfirmedValuesOfBothLevels) {
     EXPECT_TRUE(std::any_of(rec.samples.begin(), rec.samples.end(),
                             [](const ServoSample& s) { return s.lesion == 0 && s.contacts > 0; }));
   }
-  EXPECT_EQ(test::query(dir / "class.db", "SELECT count(*) FROM scores WHERE name IN ('mu_s', 'mu_d')")[0][0], "8");
+  EXPECT_EQ(test::query(dir / "class.db", "SELECT count(*) FROM scores WHERE name IN ('mu_s', 'mu_d')")[0][0],
+            "8");
 }
 
 TEST(Headless, DiagnosisMarkOnTheLesionDetectsItAndOneThreeMillimetresAwayIsFalse) {
@@ -231,8 +233,9 @@ TEST(Headless, DiagnosisMarksFromTheDeviceButtonsOfAReplayedSession) {
   StudyRun run(study, options(dir / "class.db"));
   HeadlessOptions headless;
   headless.device = "replay:" + session.string();
-  const auto results =
-      run_headless(run, parse_answers("trials:\n  - {buttons: {mild: 0, severe: 1}, end: 1.0}\n", "answers.yaml"), headless);
+  const auto results = run_headless(
+      run, parse_answers("trials:\n  - {buttons: {mild: 0, severe: 1}, end: 1.0}\n", "answers.yaml"),
+      headless);
   ASSERT_EQ(results.size(), 1u);
   const TrialResult& r = results[0];
   ASSERT_EQ(r.answers.marks.size(), 2u);

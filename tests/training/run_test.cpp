@@ -58,18 +58,21 @@ TEST(StudyRun, WritesTheSchemaAndOneRowPerTrialWithItsScores) {
   const auto version = test::query(db, "SELECT version, application FROM schema_version");
   ASSERT_EQ(version.size(), 1u);
   EXPECT_EQ(version[0], (std::vector<std::string>{"1", std::string(kStudyApplication)}));
-  const auto trials = test::query(db,
-                                  "SELECT station, participant, study, kind, trial, seed, ended_at IS NOT NULL,"
-                                  " recording FROM trials ORDER BY id");
+  const auto trials =
+      test::query(db,
+                  "SELECT station, participant, study, kind, trial, seed, ended_at IS NOT NULL,"
+                  " recording FROM trials ORDER BY id");
   ASSERT_EQ(trials.size(), 2u);
   EXPECT_EQ(trials[0], (std::vector<std::string>{"station-1", "P01", "boundary-small", "boundary-shapes", "1",
                                                  std::to_string(trial_seed(42, 0)), "1", "NULL"}));
   EXPECT_EQ(trials[1][4], "2");
-  const auto points = test::query(db, "SELECT trial_id, value, unit FROM scores WHERE name = 'boundary_point' ORDER BY trial_id");
+  const auto points = test::query(
+      db, "SELECT trial_id, value, unit FROM scores WHERE name = 'boundary_point' ORDER BY trial_id");
   ASSERT_EQ(points.size(), 2u);
   EXPECT_EQ(points[0][1], "1.0");
   EXPECT_EQ(points[1][1], "0.0");
-  EXPECT_EQ(test::query(db, "SELECT count(*) FROM scores WHERE name = 'shape_correct' AND value = 0")[0][0], "2");
+  EXPECT_EQ(test::query(db, "SELECT count(*) FROM scores WHERE name = 'shape_correct' AND value = 0")[0][0],
+            "2");
   // The JSON columns carry the same.
   const auto json = test::query(db, "SELECT answers, scores FROM trials WHERE trial = 2");
   EXPECT_NE(json[0][0].find("\"hidden\""), std::string::npos) << json[0][0];
@@ -147,8 +150,8 @@ TEST(StudyRun, ChecksTheAnswers) {
   StudyRun run(tuning, options(dir / "t.db"));
   const TrialSetup& t = run.begin_trial();
   ASSERT_EQ(run.current_level(), t.levels[0]);
-  EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}}, 1.0), Error);                   // mu_d missing
-  EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}, {"mu_d", 1.5}}, 1.0), Error);    // beyond its slider
+  EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}}, 1.0), Error);                 // mu_d missing
+  EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}, {"mu_d", 1.5}}, 1.0), Error);  // beyond its slider
   EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}, {"mu_d", NAN}}, 1.0), Error);
   EXPECT_THROW(run.confirm_tuning({{"mu_s", 0.2}, {"mu_d", 0.1}, {"k_c", 1.0}}, 1.0), Error);
   run.confirm_tuning({{"mu_s", 0.2}, {"mu_d", 0.1}}, 1.0);
@@ -171,7 +174,8 @@ TEST(StudyRunCrash, DISABLED_ChildRunsUntilKilled) {
   ASSERT_NE(db, nullptr);
   StudyRun run(boundary_small(), options(db));
   const ScriptedAnswers answers = parse_answers(
-      "trials:\n  - {shapes: [square, circle, triangle], end: 0.2}\n  - {shapes: [square, circle, triangle]}\n",
+      "trials:\n  - {shapes: [square, circle, triangle], end: 0.2}\n  - {shapes: [square, circle, "
+      "triangle]}\n",
       "child.yaml");
   HeadlessOptions headless;
   headless.duration = 60.0;

@@ -79,7 +79,8 @@ TEST(JudgeMarks, AMarkMadeInTheAirDetectsNothing) {
   // 2 mm above the lesion's centre lies inside its volume (which reaches above the surface), but
   // the tool touched nothing: a false mark.
   const std::vector<ScoredLesion> lesions = {disk(0.0, Grade::Severe)};
-  const std::vector<MarkJudgement> j = judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, false}}, lesions, 0.5);
+  const std::vector<MarkJudgement> j =
+      judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, false}}, lesions, 0.5);
   ASSERT_EQ(j.size(), 1u);
   EXPECT_EQ(j[0].lesion, -1);
   EXPECT_EQ(judge_marks({{Vec3(0.0, 0.0, 2.0), Grade::Severe, 1.0, true}}, lesions, 0.5)[0].lesion, 0);
@@ -226,10 +227,10 @@ TEST(MotionScores, BlockedInsertionsArePressesAtThresholdThatDoNotEnter) {
       r.samples[i].force = Vec3(0.0, 0.0, force);
     }
   };
-  press(100, 200, 2.4);   // 100 ms at F_p* without entering: blocked
-  press(400, 420, 2.4);   // 20 ms: too short to count
-  press(600, 700, 1.5);   // below F_p*: not a press
-  press(900, 960, 2.2);   // 60 ms, then it enters: not blocked
+  press(100, 200, 2.4);  // 100 ms at F_p* without entering: blocked
+  press(400, 420, 2.4);  // 20 ms: too short to count
+  press(600, 700, 1.5);  // below F_p*: not a press
+  press(900, 960, 2.2);  // 60 ms, then it enters: not blocked
   for (std::size_t i = 960; i < 1100; ++i) {
     r.samples[i].state = InteractionState::Inserting;
     r.samples[i].lesion = 0;

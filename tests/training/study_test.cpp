@@ -83,8 +83,10 @@ TEST(StudyParse, BadValuesAreLocatedAndNamed) {
       {"kind: boundary-shapes\nboundary:\n  shape_size: 120\n", "3:15", "does not fit"},
       {"kind: boundary-shapes\nseed: -4\n", "2:7", "seed"},
       {"kind: boundary-shapes\ntuning:\n  target: roughness\n", "3:3", "no `tuning` section"},
-      {"kind: tuning\ntuning:\n  target: roughness\n  parameters:\n    mu_s: [0.2, 7.0]\n", "5:17", "mu_s[1]"},
-      {"kind: tuning\ntuning:\n  target: roughness\n  parameters:\n    k_c: [0.2, 1.0]\n", "5:10", "not tuned"},
+      {"kind: tuning\ntuning:\n  target: roughness\n  parameters:\n    mu_s: [0.2, 7.0]\n", "5:17",
+       "mu_s[1]"},
+      {"kind: tuning\ntuning:\n  target: roughness\n  parameters:\n    k_c: [0.2, 1.0]\n", "5:10",
+       "not tuned"},
       {"kind: tuning\ntuning:\n  target: insertion\n  lesion: nowhere\n", "3:3", "no lesion 'nowhere'"},
       {"kind: diagnosis\ndiagnosis:\n  scene: oral-cavity\n  sites:\n    - {name: a, object: tooth99, site: "
        "occlusal, at: [0, 0, 7], normal: [0, 0, 1]}\n  generate: {}\n",

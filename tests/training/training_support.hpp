@@ -11,13 +11,16 @@
 namespace cariesim::training::test {
 
 /// studies/examples in the source tree.
-inline std::filesystem::path examples() { return std::filesystem::path(CARIESIM_SOURCE_DIR) / "studies" / "examples"; }
+inline std::filesystem::path examples() {
+  return std::filesystem::path(CARIESIM_SOURCE_DIR) / "studies" / "examples";
+}
 
 /// A fresh folder for the current test (removed first when left by an earlier run).
 inline std::filesystem::path scratch() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("cariesim_training_" + std::string(info->test_suite_name()) + "_" + info->name());
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() /
+      ("cariesim_training_" + std::string(info->test_suite_name()) + "_" + info->name());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

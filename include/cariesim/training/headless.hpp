@@ -34,15 +34,15 @@ namespace cariesim::training {
 
 /// A diagnosis mark in an answers file.
 struct ScriptedMark {
-  double t = 0.0;           ///< s, servo time of the press
-  std::optional<Vec3> at;   ///< mm, world; unset: the recorded graphic tip at t (and its contact)
+  double t = 0.0;          ///< s, servo time of the press
+  std::optional<Vec3> at;  ///< mm, world; unset: the recorded graphic tip at t (and its contact)
   Grade grade = Grade::Mild;
-  bool contact = true;      ///< from the recording for a recorded tip; true for an explicit `at`
+  bool contact = true;  ///< from the recording for a recorded tip; true for an explicit `at`
 };
 
 /// One trial's entry of an answers file.
 struct ScriptedTrial {
-  SourceLoc where;  ///< the entry in the answers file
+  SourceLoc where;                                              ///< the entry in the answers file
   std::map<std::string, std::map<std::string, double>> tuning;  ///< level -> parameter -> value
   std::vector<std::string> shapes;
   std::vector<ScriptedMark> marks;
@@ -78,6 +78,7 @@ struct HeadlessOptions {
 /// Runs every trial of `run` (from its current one): builds the scene, runs a recorded Session with the
 /// device until the path ends (or the case's end or time limit), gives the answers and ends the
 /// trial. Returns the results. Throws cariesim::Error naming the trial and what failed.
-std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers, const HeadlessOptions& options);
+std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers,
+                                      const HeadlessOptions& options);
 
 }  // namespace cariesim::training

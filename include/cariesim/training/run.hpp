@@ -37,12 +37,12 @@ namespace cariesim::training {
 
 /// Who runs a study, where, and into which database.
 struct RunOptions {
-  std::string participant;          ///< required, e.g. "P01" (letters, digits, '-', '_', '.')
-  std::string station;              ///< this machine's name in trials.station; empty: the host name
-  std::filesystem::path database;   ///< the study database, created when missing
+  std::string participant;         ///< required, e.g. "P01" (letters, digits, '-', '_', '.')
+  std::string station;             ///< this machine's name in trials.station; empty: the host name
+  std::filesystem::path database;  ///< the study database, created when missing
   /// The study seed; unset: the study file's seed, else one drawn from std::random_device.
   std::optional<uint64_t> seed;
-  std::optional<int> trials;        ///< overrides the study's trial count
+  std::optional<int> trials;  ///< overrides the study's trial count
   /// Folder of the trials' recordings; relative paths are taken from the database's folder. Empty:
   /// "DB-recordings" beside the database (DB its file name without extension), so two databases in
   /// one folder never share a recording name.
@@ -53,7 +53,7 @@ struct RunOptions {
 struct Mark {
   Vec3 tip = Vec3::Zero();  ///< mm, world: the graphic tool's tip (tool-frame origin)
   Grade grade = Grade::Mild;
-  double t = 0.0;           ///< s, servo time of the press (the recording's clock)
+  double t = 0.0;  ///< s, servo time of the press (the recording's clock)
   /// The tool touched something when the mark was made (ServoSnapshot::out.contacts > 0): a mark
   /// made in the air detects nothing (it is a false mark), however close above a lesion.
   bool contact = true;
@@ -75,22 +75,22 @@ struct TrialAnswers {
 
 /// One score (a row of the study database's scores table).
 struct Score {
-  std::string name;   ///< kScore* of study_schema.hpp
-  std::string level;  ///< "mild"/"severe", a shape name, or ""
-  double value = 0.0; ///< in unit
-  std::string unit;   ///< "", "N/mm", "s", "N", "count", "fraction"
+  std::string name;    ///< kScore* of study_schema.hpp
+  std::string level;   ///< "mild"/"severe", a shape name, or ""
+  double value = 0.0;  ///< in unit
+  std::string unit;    ///< "", "N/mm", "s", "N", "count", "fraction"
 };
 
 /// What ending a trial wrote.
 struct TrialResult {
-  int64_t row = 0;                    ///< trials.id
-  int index = 0;                      ///< 0-based trial number
+  int64_t row = 0;  ///< trials.id
+  int index = 0;    ///< 0-based trial number
   uint64_t seed = 0;
-  std::filesystem::path recording;    ///< as stored: relative to the database's folder when inside it
+  std::filesystem::path recording;  ///< as stored: relative to the database's folder when inside it
   TrialAnswers answers;
   std::vector<Score> scores;
-  std::string answers_json;           ///< trials.answers
-  std::string scores_json;            ///< trials.scores
+  std::string answers_json;  ///< trials.answers
+  std::string scores_json;   ///< trials.scores
 };
 
 class StudyRun {

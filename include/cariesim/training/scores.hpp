@@ -38,8 +38,8 @@ struct MarkJudgement {
 std::vector<Mark> marks_from_buttons(const Recording& recording, int mild_button, int severe_button);
 
 /// Judges each mark against the lesions (docs/training.md, "detection").
-std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks, const std::vector<ScoredLesion>& lesions,
-                                       double margin);
+std::vector<MarkJudgement> judge_marks(const std::vector<Mark>& marks,
+                                       const std::vector<ScoredLesion>& lesions, double margin);
 
 /// The scores of one trial. `recording` may be null (no motion scores then); `lesions` are needed
 /// for a diagnosis trial (one per TrialTruth::lesions entry, same order). Throws cariesim::Error

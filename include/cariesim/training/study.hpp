@@ -75,35 +75,35 @@ struct BoundaryDesc {
 
 /// Where a diagnosis lesion may be placed (`diagnosis.sites` in the study file).
 struct LesionSite {
-  std::string name;    ///< unique within the study, e.g. "46-occlusal"
-  SourceLoc where;     ///< the entry in the study file
-  std::string object;  ///< the tooth object of the scene, e.g. "tooth46"
-  int fdi = 0;         ///< that object's FDI number (from the scene)
-  std::string site;    ///< "occlusal" or "interproximal"
-  Vec3 at = Vec3::Zero();          ///< mm, placement point in the object frame (snapped onto the surface)
-  Vec3 normal = Vec3::UnitZ();     ///< outward normal there (object frame)
-  Vec3 tangent = Vec3::UnitX();    ///< in-plane direction of the shape (object frame)
-  double snap_range = 3.0;         ///< mm
+  std::string name;              ///< unique within the study, e.g. "46-occlusal"
+  SourceLoc where;               ///< the entry in the study file
+  std::string object;            ///< the tooth object of the scene, e.g. "tooth46"
+  int fdi = 0;                   ///< that object's FDI number (from the scene)
+  std::string site;              ///< "occlusal" or "interproximal"
+  Vec3 at = Vec3::Zero();        ///< mm, placement point in the object frame (snapped onto the surface)
+  Vec3 normal = Vec3::UnitZ();   ///< outward normal there (object frame)
+  Vec3 tangent = Vec3::UnitX();  ///< in-plane direction of the shape (object frame)
+  double snap_range = 3.0;       ///< mm
   LesionShape::Kind shape = LesionShape::Kind::Disk;  ///< disk, stripe, ellipsoid, inverted-cone
 };
 
 /// One hidden lesion of a diagnosis case.
 struct CaseLesion {
-  std::string site;      ///< a LesionSite name
+  std::string site;  ///< a LesionSite name
   Grade severity = Grade::Mild;
-  double size = 2.0;     ///< mm (LesionShape::size)
-  double width = 1.0;    ///< mm (LesionShape::width: stripes and ellipsoids)
-  double depth = 1.2;    ///< mm below the surface
+  double size = 2.0;   ///< mm (LesionShape::size)
+  double width = 1.0;  ///< mm (LesionShape::width: stripes and ellipsoids)
+  double depth = 1.2;  ///< mm below the surface
 };
 
 /// How cases are drawn when the study file gives no case list (`diagnosis.generate`).
 struct CaseGenerator {
-  int min_count = 1;          ///< lesions per case, drawn in [min_count, max_count]
+  int min_count = 1;  ///< lesions per case, drawn in [min_count, max_count]
   int max_count = 3;
-  double mild_fraction = 0.5; ///< probability that a lesion is mild
-  double min_size = 1.5;      ///< mm, size drawn uniformly in [min_size, max_size]
+  double mild_fraction = 0.5;  ///< probability that a lesion is mild
+  double min_size = 1.5;       ///< mm, size drawn uniformly in [min_size, max_size]
   double max_size = 3.0;
-  double min_width = 0.8;     ///< mm, width (stripes, ellipsoids)
+  double min_width = 0.8;  ///< mm, width (stripes, ellipsoids)
   double max_width = 1.4;
   double mild_depth[2] = {0.6, 1.2};    ///< mm, depth range of a mild lesion (enamel)
   double severe_depth[2] = {1.5, 2.5};  ///< mm, depth range of a severe lesion (into dentin)
@@ -117,16 +117,16 @@ struct DiagnosisDesc {
   /// from their seed when `generate` is set, else the list starts over (case i % size).
   std::vector<std::vector<CaseLesion>> cases;
   std::optional<CaseGenerator> generate;  ///< how cases beyond the list are drawn
-  double time_limit = 180.0;                   ///< s per case (servo time); 0: none
-  double detection_margin = 0.5;               ///< mm beyond the lesion's footprint a mark still counts
+  double time_limit = 180.0;              ///< s per case (servo time); 0: none
+  double detection_margin = 0.5;          ///< mm beyond the lesion's footprint a mark still counts
 };
 
 /// Thresholds of the safety scores (`scoring:` in the study file).
 struct ScoringDesc {
   /// N, soft-tissue force above this counts as damage; unset: the recording's soft_tissue_threshold
   std::optional<double> soft_tissue_threshold;
-  double enamel_force_limit = 4.0;    ///< N, force on hard tissue above this is excess
-  double blocked_min_duration = 0.05; ///< s, a press on caries at F_p* this long without entering is blocked
+  double enamel_force_limit = 4.0;     ///< N, force on hard tissue above this is excess
+  double blocked_min_duration = 0.05;  ///< s, a press on caries at F_p* this long without entering is blocked
 };
 
 /// A parsed, validated study file.
@@ -161,16 +161,16 @@ uint64_t trial_seed(uint64_t study_seed, int index);
 
 /// What is hidden in a trial: the scorer's truth, never shown to a trainee.
 struct TrialTruth {
-  std::vector<std::string> shapes;      ///< boundary: the hidden shape of each cube, in cube order
-  std::vector<CaseLesion> lesions;      ///< diagnosis: the case's lesions (scene lesions "lesionN", N from 1)
+  std::vector<std::string> shapes;  ///< boundary: the hidden shape of each cube, in cube order
+  std::vector<CaseLesion> lesions;  ///< diagnosis: the case's lesions (scene lesions "lesionN", N from 1)
 };
 
 /// One trial as the participant gets it.
 struct TrialSetup {
-  int index = 0;           ///< 0-based trial number within the run
+  int index = 0;  ///< 0-based trial number within the run
   StudyKind kind = StudyKind::Tuning;
-  uint64_t seed = 0;       ///< this trial's seed (recorded in trials.seed)
-  std::string scene_yaml;  ///< the scene to build and load (parse_scene(scene_yaml, scene_origin))
+  uint64_t seed = 0;         ///< this trial's seed (recorded in trials.seed)
+  std::string scene_yaml;    ///< the scene to build and load (parse_scene(scene_yaml, scene_origin))
   std::string scene_origin;  ///< names the scene in messages and anchors its relative paths
   /// Tuning: the levels to tune, in the order asked, and the sliders (start drawn per trial).
   std::vector<Grade> levels;
