@@ -70,11 +70,13 @@ TEST(Headless, BoundaryAllRightScoresTenOfTenAndOneWrongShapeLosesThatPoint) {
       const std::string hidden = make_trial(study, 3, trial_seed(run.seed(), 3)).truth.shapes[1];
       EXPECT_EQ(score(results[3], kScoreShapeCorrect, hidden), 0.0);
     }
-    // Every trial has its recording of the session (0.1 s at 1 kHz) beside the database.
+    // Every trial has its recording of the session (0.1 s at 1 kHz) beside the database. The span is
+    // checked, not the count: a loaded machine may skip late servo cycles (their deadlines stay).
     EXPECT_EQ(test::query(db, "SELECT sum(value) FROM scores WHERE name = 'boundary_point'")[0][0],
               wrong < 0 ? "10.0" : "9.0");
     const Recording rec = load_recording(dir / results[9].recording);
-    EXPECT_GE(rec.samples.size(), 95u);
+    ASSERT_FALSE(rec.samples.empty());
+    EXPECT_GE(rec.samples.back().t - rec.samples.front().t, 0.09);
     EXPECT_FALSE(rec.info.ended_at.empty());
   }
 }
