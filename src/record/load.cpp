@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/common/staged_folder.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "record/schema.hpp"
 #include "record/sqlite.hpp"
@@ -218,49 +219,6 @@ Recording load_recording(const fs::path& file) {
 
 namespace {
 
-// The export's staging folder: a hidden sibling of the target (same file system, so the files move
-// into place by rename), removed whatever happens unless released.
-class Staging {
- public:
-  explicit Staging(const fs::path& target)
-      : path_(target.parent_path() /
-              ("." + target.filename().string() + ".export-" + std::to_string(::getpid()))) {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-    if (!fs::create_directories(path_, ec) || ec)
-      throw Error(target.string() + ": cannot create the export's staging folder " + path_.string() + ": " +
-                  (ec ? ec.message() : std::string("it exists")));
-  }
-  ~Staging() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  Staging(const Staging&) = delete;
-  Staging& operator=(const Staging&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-// Moves the finished files from the staging folder into `dir`: the whole folder by one rename when
-// `dir` does not exist yet, otherwise file by file (each rename replaces one earlier file at once).
-void publish(const fs::path& staging, const fs::path& dir, std::vector<fs::path>& files) {
-  std::error_code ec;
-  if (!fs::exists(dir, ec)) {
-    fs::rename(staging, dir, ec);
-    if (ec) throw Error(dir.string() + ": cannot move the export into place: " + ec.message());
-  } else {
-    if (!fs::is_directory(dir, ec)) throw Error(dir.string() + ": exists and is not a folder");
-    for (const fs::path& f : files) {
-      fs::rename(f, dir / f.filename(), ec);
-      if (ec)
-        throw Error((dir / f.filename()).string() + ": cannot move the export into place: " + ec.message());
-    }
-  }
-  for (fs::path& f : files) f = dir / f.filename();
-}
-
 }  // namespace
 
 // Everything is written into a staging folder beside `dir` and moved into `dir` only when complete,
@@ -270,18 +228,8 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
   const std::unique_ptr<Database> db = open_recording(file, version);
   Recording session;
   read_session(*db, session);
-  fs::path target = out_dir.lexically_normal();
-  if (target.filename().empty()) target = target.parent_path();
-  if (target.empty()) target = ".";
-  std::error_code ec;
-  if (fs::exists(target, ec) && !fs::is_directory(target, ec))
-    throw Error(target.string() + ": exists and is not a folder");
-  if (!target.parent_path().empty()) {
-    fs::create_directories(target.parent_path(), ec);
-    if (ec) throw Error(target.string() + ": cannot create the export folder: " + ec.message());
-  }
-  const Staging staging(fs::absolute(target, ec));
-  const fs::path& dir = staging.path();
+  StagedFolder staged(out_dir, "export");
+  const fs::path& dir = staged.staging();
   ExportSummary summary;
   db->exec("BEGIN", "cannot begin reading");
 
@@ -378,7 +326,8 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
     summary.files.push_back(dir / "events.csv");
   }
   db->exec("COMMIT", "cannot end reading");
-  publish(dir, target, summary.files);
+  staged.publish();
+  for (fs::path& f : summary.files) f = staged.target() / f.filename();
   return summary;
 }
 

@@ -14,6 +14,7 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
+#include "cariesim/common/staged_folder.hpp"
 #include "cariesim/experiment/json.hpp"
 #include "cariesim/training/report.hpp"
 
@@ -54,31 +55,6 @@ Cell Cell::of_number(double d) {
 }
 
 namespace {
-
-// The staging folder: a hidden sibling of the target (same file system, so the files move into place
-// by rename), removed whatever happens unless its content was moved.
-class Staging {
- public:
-  explicit Staging(const fs::path& target)
-      : path_(target.parent_path() /
-              ("." + target.filename().string() + ".report-" + std::to_string(::getpid()))) {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-    if (!fs::create_directories(path_, ec) || ec)
-      throw Error(target.string() + ": cannot create the report's staging folder " + path_.string() + ": " +
-                  (ec ? ec.message() : std::string("it exists")));
-  }
-  ~Staging() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  Staging(const Staging&) = delete;
-  Staging& operator=(const Staging&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 void write_file(const fs::path& file, const std::string& text) {
   std::ofstream out(file, std::ios::binary | std::ios::trunc);
@@ -328,26 +304,15 @@ std::string report_json(const Report& report, const std::vector<fs::path>& figur
 }  // namespace
 
 ReportFiles write_report(const Report& report, const fs::path& out_dir, const FigureDrawer& draw) {
-  // The target folder and its staging sibling.
-  fs::path target = out_dir.lexically_normal();
-  if (target.filename().empty()) target = target.parent_path();
-  if (target.empty()) target = ".";
-  std::error_code ec;
-  if (fs::exists(target, ec) && !fs::is_directory(target, ec))
-    throw Error(target.string() + ": exists and is not a folder");
-  target = fs::absolute(target, ec);
-  if (!target.parent_path().empty()) {
-    fs::create_directories(target.parent_path(), ec);
-    if (ec) throw Error(target.string() + ": cannot create the report folder: " + ec.message());
-  }
-  const Staging staging(target);
-  const fs::path& dir = staging.path();
+  StagedFolder staged(out_dir, "report");
+  const fs::path& dir = staged.staging();
   const std::string generated = utc_now_iso8601();
 
   // The tables as CSV, then the figures drawn from them, then JSON and HTML.
   for (const ReportTable& table : report.tables) write_file(dir / (table.name + ".csv"), table_csv(table));
   std::vector<fs::path> figures;
   if (draw) {
+    std::error_code ec;
     for (const fs::path& f : draw(dir)) {
       const fs::path file = f.is_absolute() ? f : dir / f;
       if (file.extension() == ".png" && fs::is_regular_file(file, ec)) figures.push_back(file);
@@ -356,22 +321,11 @@ ReportFiles write_report(const Report& report, const fs::path& out_dir, const Fi
   write_file(dir / "report.json", report_json(report, figures, generated));
   write_file(dir / "report.html", report_html(report, figures, generated));
 
-  // Into place: the whole folder by one rename when `target` is new, otherwise file by file.
+  // Into place: the whole folder by one rename when the target is new, otherwise file by file.
   ReportFiles result;
-  result.dir = target;
+  result.dir = staged.target();
   result.figures = figures.size();
-  std::vector<fs::path> staged;
-  for (const fs::directory_entry& e : fs::directory_iterator(dir)) staged.push_back(e.path().filename());
-  if (!fs::exists(target, ec)) {
-    fs::rename(dir, target, ec);
-    if (ec) throw Error(target.string() + ": cannot move the report into place: " + ec.message());
-  } else {
-    for (const fs::path& name : staged) {
-      fs::rename(dir / name, target / name, ec);
-      if (ec) throw Error((target / name).string() + ": cannot move the report into place: " + ec.message());
-    }
-  }
-  for (const fs::path& name : staged) result.files.push_back(target / name);
+  result.files = staged.publish();
   return result;
 }
 
