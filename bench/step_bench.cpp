@@ -18,8 +18,9 @@
 // each step; cpu_p50_us, cpu_p99_us, cpu_p999_us, cpu_max_us from the thread's CPU clock (what the
 // step costs, without the preemptions of a shared machine); the share of steps in contact / in the
 // tunnel; where the work goes: sub-steps per step (mean), the share of steps that ran out of
-// sub-steps (lagging), whose pair list overflowed (overflow), and the sphere pairs of the last
-// sub-step (pairs, mean; pairs_max).
+// sub-steps (lagging), whose pair list overflowed (overflow), the sphere pairs of the last sub-step
+// (pairs, mean; pairs_max), the node pairs the collision queries visited (work, mean; work_max: the
+// unit of StepSettings::work_budget) and the share of steps that ran out of it (over_budget).
 
 #include <benchmark/benchmark.h>
 
@@ -199,7 +200,7 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   std::size_t i = 0;
   int dir = 1;
   double contact = 0.0, tunnel = 0.0, steps = 0.0, substeps = 0.0, lagging = 0.0, overflow = 0.0;
-  double pairs = 0.0, pairs_max = 0.0;
+  double pairs = 0.0, pairs_max = 0.0, work = 0.0, work_max = 0.0, budget = 0.0;
   for (auto _ : state) {
     const double c0 = thread_us();
     const auto t0 = std::chrono::steady_clock::now();
@@ -217,6 +218,9 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
     overflow += (out.flags & kFlagContactOverflow) != 0;
     pairs += s.impl().pairs.count;
     pairs_max = std::max(pairs_max, static_cast<double>(s.impl().pairs.count));
+    work += static_cast<double>(out.work);
+    work_max = std::max(work_max, static_cast<double>(out.work));
+    budget += (out.flags & kFlagWorkBudget) != 0;
     tunnel += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
     ++steps;
     if ((dir > 0 && i + 1 == poses.size()) || (dir < 0 && i == 0)) dir = -dir;
@@ -244,6 +248,9 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   state.counters["overflow"] = overflow / steps;
   state.counters["pairs"] = pairs / steps;
   state.counters["pairs_max"] = pairs_max;
+  state.counters["work"] = work / steps;
+  state.counters["work_max"] = work_max;
+  state.counters["over_budget"] = budget / steps;
   state.counters["in_contact"] = contact / steps;
   state.counters["in_tunnel"] = tunnel / steps;
   state.counters["counted"] = static_cast<double>(us.size());
