@@ -6,11 +6,21 @@
 // lesion #1 on 46; without the shipped scans those benchmarks are skipped with a message.
 // Targets: median <= 50 us, p99 <= 100 us, p99.9 <= 250 us on one core.
 //
+// The real arch also runs the three trajectories of issue #11 over its tooth 36 (scan tooth_19, beside
+// 35 and 37): scenes/trajectories/real-{raster,sweep,wedge}-36.csv, made in the scan's coordinates
+// by scripts/trajectories/make_real_trajectories.py (a raster at 20 mm/s with the haptic tip 2 mm
+// below the occlusal surface, sweeps at 100 mm/s across the fissures, the shank wedged between 36 and
+// 35 while the hand pushes on) and mapped into the world by the scene's pose of tooth36.
+//
 // Run: build/bench/step_bench --benchmark_counters_tabular=true
 // Each benchmark iteration is one servo step at 1 kHz; the trajectory plays forward and backward so
 // the state stays continuous. Counters: p50_us, p99_us, p999_us, max_us from the wall clock around
-// each step; cpu_p50_us, cpu_p99_us, cpu_p999_us from the thread's CPU clock (what the step costs,
-// without the preemptions of a shared machine); the share of steps in contact / in the tunnel.
+// each step; cpu_p50_us, cpu_p99_us, cpu_p999_us, cpu_max_us from the thread's CPU clock (what the
+// step costs, without the preemptions of a shared machine); the share of steps in contact / in the
+// tunnel; where the work goes: sub-steps per step (mean), the share of steps that ran out of
+// sub-steps (lagging), whose pair list overflowed (overflow), the sphere pairs of the last sub-step
+// (pairs, mean; pairs_max), the node pairs the collision queries visited (work, mean; work_max: the
+// unit of StepSettings::work_budget) and the share of steps that ran out of it (over_budget).
 
 #include <benchmark/benchmark.h>
 
@@ -25,7 +35,9 @@
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/trajectory.hpp"
 #include "experiment/oral.hpp"
+#include "render/state_impl.hpp"
 
 namespace {
 
@@ -36,19 +48,30 @@ const Model& oral() {
   return model;
 }
 
-// The real arch, or nothing (with the reason) when its scans cannot be loaded.
-const Model* real_arch(std::string* why) {
+// The real arch with its scene description, or nothing (with the reason) when its scans cannot be
+// loaded.
+struct RealArch {
+  SceneDesc desc;
+  Model model;
+};
+const RealArch* real_arch_scene(std::string* why) {
   static std::string reason;
-  static const std::optional<Model> model = []() -> std::optional<Model> {
+  static const std::optional<RealArch> arch = []() -> std::optional<RealArch> {
     try {
-      return build_model(load_scene("real-arch"));
+      SceneDesc desc = load_scene("real-arch");
+      Model model = build_model(desc);
+      return RealArch{std::move(desc), std::move(model)};
     } catch (const std::exception& e) {
       reason = e.what();
       return std::nullopt;
     }
   }();
   *why = reason;
-  return model ? &*model : nullptr;
+  return arch ? &*arch : nullptr;
+}
+const Model* real_arch(std::string* why) {
+  const RealArch* arch = real_arch_scene(why);
+  return arch != nullptr ? &arch->model : nullptr;
 }
 
 const Model& blocks() {
@@ -136,6 +159,18 @@ std::vector<Pose> fissure_with_shank_on_neighbour(const Model& m) {
   return sample(t);
 }
 
+// A trajectory of scenes/trajectories in tooth 36's scan coordinates, mapped into the real arch's world
+// by the scene's pose of tooth36 (every tooth of the arch has the same scan -> world pose).
+std::vector<Pose> scan_trajectory(const RealArch& arch, const char* file) {
+  const int tooth = arch.desc.find_object("tooth36");
+  const Pose to_world = tooth >= 0 ? arch.desc.objects[static_cast<std::size_t>(tooth)].pose : Pose{};
+  const Trajectory scan = load_trajectory_csv(std::string(CARIESIM_SOURCE_DIR) + "/scenes/trajectories/" + file);
+  Trajectory world;
+  for (std::size_t i = 0; i < scan.t.size(); ++i)
+    world.add(scan.t[i], Pose{to_world.transform(scan.pose[i].p), (to_world.q * scan.pose[i].q).normalized()});
+  return sample(world);
+}
+
 // Insertion-blocks, paper Fig. 14: pressed in until the shank comes down onto the healthy block.
 std::vector<Pose> insertion_with_contact() {
   const Model& m = blocks();
@@ -164,7 +199,8 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   };
   std::size_t i = 0;
   int dir = 1;
-  double contact = 0.0, tunnel = 0.0, steps = 0.0;
+  double contact = 0.0, tunnel = 0.0, steps = 0.0, substeps = 0.0, lagging = 0.0, overflow = 0.0;
+  double pairs = 0.0, pairs_max = 0.0, work = 0.0, work_max = 0.0, budget = 0.0;
   for (auto _ : state) {
     const double c0 = thread_us();
     const auto t0 = std::chrono::steady_clock::now();
@@ -177,6 +213,14 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
       cpu.push_back(c1 - c0);
     }
     contact += out.contacts > 0;
+    substeps += out.substeps;
+    lagging += (out.flags & kFlagLagging) != 0;
+    overflow += (out.flags & kFlagContactOverflow) != 0;
+    pairs += s.impl().pairs.count;
+    pairs_max = std::max(pairs_max, static_cast<double>(s.impl().pairs.count));
+    work += static_cast<double>(out.work);
+    work_max = std::max(work_max, static_cast<double>(out.work));
+    budget += (out.flags & kFlagWorkBudget) != 0;
     tunnel += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
     ++steps;
     if ((dir > 0 && i + 1 == poses.size()) || (dir < 0 && i == 0)) dir = -dir;
@@ -198,6 +242,15 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   state.counters["cpu_p50_us"] = pct(cpu, 0.5);
   state.counters["cpu_p99_us"] = pct(cpu, 0.99);
   state.counters["cpu_p999_us"] = pct(cpu, 0.999);
+  state.counters["cpu_max_us"] = cpu.back();
+  state.counters["substeps"] = substeps / steps;
+  state.counters["lagging"] = lagging / steps;
+  state.counters["overflow"] = overflow / steps;
+  state.counters["pairs"] = pairs / steps;
+  state.counters["pairs_max"] = pairs_max;
+  state.counters["work"] = work / steps;
+  state.counters["work_max"] = work_max;
+  state.counters["over_budget"] = budget / steps;
   state.counters["in_contact"] = contact / steps;
   state.counters["in_tunnel"] = tunnel / steps;
   state.counters["counted"] = static_cast<double>(us.size());
@@ -228,6 +281,22 @@ void BM_StepRealArch(benchmark::State& state) {
   static const std::vector<Pose> poses = Make(*m);
   run(state, *m, poses, nullptr);
 }
+// Issue #11's trajectories over the real arch's tooth 36.
+template <const char* File>
+void BM_StepRealArchScan(benchmark::State& state) {
+  std::string why;
+  const RealArch* arch = real_arch_scene(&why);
+  if (arch == nullptr) {
+    state.SkipWithError(("skipped: real-arch: " + why).c_str());
+    return;
+  }
+  static const std::vector<Pose> poses = scan_trajectory(*arch, File);
+  run(state, arch->model, poses, nullptr);
+}
+constexpr char kRaster[] = "real-raster-36.csv";
+constexpr char kSweep[] = "real-sweep-36.csv";
+constexpr char kWedge[] = "real-wedge-36.csv";
+
 void BM_StepInsertionWithContact(benchmark::State& state) {
   static const std::vector<Pose> poses = insertion_with_contact();
   // Only the steps inside the tunnel with an additional contact row.
@@ -250,6 +319,18 @@ BENCHMARK(BM_StepRealArch<sliding>)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepRealArch<fissure_with_shank_on_neighbour>)
     ->Name("BM_StepRealArchFissureShankOnNeighbour")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArchScan<kRaster>)
+    ->Name("BM_StepRealArchRaster36")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArchScan<kSweep>)
+    ->Name("BM_StepRealArchSweep36")
+    ->Iterations(20000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepRealArchScan<kWedge>)
+    ->Name("BM_StepRealArchWedge36")
     ->Iterations(20000)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepInsertionWithContact)->Iterations(40000)->Unit(benchmark::kMicrosecond);

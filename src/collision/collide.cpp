@@ -39,14 +39,59 @@ struct Query {
   PlacedTool::LeafHits* hits;      // per tool leaf: pairs reported for this object (stamped)
   uint32_t stamp;                  // this object's traversal
   uint32_t max_per_leaf;           // pairs a tool leaf may report for this object
+  const uint32_t* leaf_quota;      // per tool leaf, lower quotas (null: max_per_leaf for all)
+  WorkBudget* budget;              // node pairs the traversal may visit, or null
 };
 
-// True when a tool node (inflated) and an object node overlap, within the pruning slack.
-inline bool overlaps(const Query& q, uint32_t t, uint32_t o) {
-  const SphereNode& on = q.object_nodes[o];
-  const Vec3 d = q.tool_centers[t] - on.center.cast<double>();
-  const double reach = q.tool_radii[t] + static_cast<double>(on.radius) + kPruneSlack;
-  return d.squaredNorm() < reach * reach;
+// Pairs tool leaf `leaf` may report for the object being traversed.
+inline uint32_t quota(const Query& q, uint32_t leaf) {
+  return q.leaf_quota != nullptr ? std::min(q.max_per_leaf, q.leaf_quota[leaf]) : q.max_per_leaf;
+}
+
+// True when a tool leaf has reported its quota of pairs for the object being traversed.
+inline bool quota_full(const Query& q, const SphereNode& tool_node) {
+  const PlacedTool::LeafHits& hits = q.hits[tool_node.leaf];
+  return tool_node.is_leaf() && hits.stamp == q.stamp && hits.count >= quota(q, tool_node.leaf);
+}
+
+// A pair of a tool leaf whose quota is full is left out: the first time, note the combination (the
+// count goes one past the quota to remember it).
+inline void leave_out(const Query& q, PlacedTool::LeafHits& hits, uint32_t leaf, ContactSet& out) {
+  if (hits.count != quota(q, leaf)) return;
+  ++hits.count;
+  out.note_capped(static_cast<uint16_t>(leaf), q.object);
+}
+
+// Squared distance (mm²) between the centres of a tool node and an object node.
+inline double distance2(const Query& q, uint32_t t, uint32_t o) {
+  return (q.tool_centers[t] - q.object_nodes[o].center.cast<double>()).squaredNorm();
+}
+
+// True when a tool node (inflated) and an object node whose centres lie sqrt(d2) apart overlap,
+// within the pruning slack.
+inline bool overlaps(const Query& q, uint32_t t, uint32_t o, double d2) {
+  const double reach = q.tool_radii[t] + static_cast<double>(q.object_nodes[o].radius) + kPruneSlack;
+  return d2 < reach * reach;
+}
+inline bool overlaps(const Query& q, uint32_t t, uint32_t o) { return overlaps(q, t, o, distance2(q, t, o)); }
+
+// A node pair with its squared centre distance (mm²), for ordering siblings.
+struct DistPair {
+  double d2;
+  uint32_t tool;
+  uint32_t object;
+};
+// Children per inner node at most (build_hierarchy's largest branching).
+constexpr int kMaxChildren = 8;
+
+// Insertion sort of at most kMaxChildren pairs, farthest first.
+inline void sort_far_first(DistPair* kids, int count) {
+  for (int k = 1; k < count; ++k) {
+    const DistPair moving = kids[k];
+    int j = k;
+    for (; j > 0 && kids[j - 1].d2 < moving.d2; --j) kids[j] = kids[j - 1];
+    kids[j] = moving;
+  }
 }
 
 // The exact leaf-pair test with the true radii; pushes a contact when the gap is below the tool
@@ -60,7 +105,10 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
   if (!(gap < q.leaf_margin[tn.leaf])) return;
   PlacedTool::LeafHits& hits = q.hits[tn.leaf];
   if (hits.stamp != q.stamp) hits = {q.stamp, 0};
-  if (hits.count >= q.max_per_leaf) return;
+  if (hits.count >= quota(q, tn.leaf)) {
+    leave_out(q, hits, tn.leaf, out);
+    return;
+  }
   ++hits.count;
   Contact c;
   c.gap = gap;
@@ -81,8 +129,17 @@ void traverse(const Query& q, ContactSet& out) {
   stack[top++] = {0, 0};
   while (top > 0) {
     const NodePair pair = stack[--top];
+    if (q.budget != nullptr && !q.budget->take()) {
+      out.mark_overflow();
+      return;
+    }
     const SphereNode& tn = q.tool_nodes[pair.tool];
     const SphereNode& on = q.object_nodes[pair.object];
+    // A tool leaf whose quota is full reports nothing more for this object: skip what is below.
+    if (quota_full(q, tn)) {
+      leave_out(q, q.hits[tn.leaf], tn.leaf, out);
+      continue;
+    }
     // Both leaves: only reached for the roots (pairs below are tested as they are generated).
     if (tn.is_leaf() && on.is_leaf()) {
       emit(q, pair.tool, pair.object, out);
@@ -92,17 +149,37 @@ void traverse(const Query& q, ContactSet& out) {
         !tn.is_leaf() && (on.is_leaf() || q.tool_radii[pair.tool] >= static_cast<double>(on.radius));
     const SphereNode& split = split_tool ? tn : on;
     const uint32_t end = split.first + split.count;
+    // Children that still overlap, nearest first: leaf pairs are tested at once, the others wait on
+    // the stack far-to-near, so that a tool leaf's quota fills with its nearest pairs first.
+    std::array<DistPair, kMaxChildren> kids;
+    int kid_count = 0;
     for (uint32_t child = split.first; child < end; ++child) {
       const uint32_t t = split_tool ? child : pair.tool;
       const uint32_t o = split_tool ? pair.object : child;
-      if (!overlaps(q, t, o)) continue;
-      if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
-        emit(q, t, o, out);
+      const double d2 = distance2(q, t, o);
+      if (!overlaps(q, t, o, d2)) continue;
+      if (kid_count < static_cast<int>(kids.size())) {
+        kids[kid_count++] = {d2, t, o};
+      } else if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
+        emit(q, t, o, out);  // more children than build_hierarchy makes: the rest unsorted
       } else if (top < kStackSize) {
         stack[top++] = {t, o};
       } else {
         out.mark_overflow();
       }
+    }
+    sort_far_first(kids.data(), kid_count);
+    for (int k = kid_count; k-- > 0;) {
+      const DistPair& kid = kids[k];
+      if (q.tool_nodes[kid.tool].is_leaf() && q.object_nodes[kid.object].is_leaf()) emit(q, kid.tool, kid.object, out);
+    }
+    for (int k = 0; k < kid_count; ++k) {
+      const DistPair& kid = kids[k];
+      if (q.tool_nodes[kid.tool].is_leaf() && q.object_nodes[kid.object].is_leaf()) continue;
+      if (top < kStackSize)
+        stack[top++] = {kid.tool, kid.object};
+      else
+        out.mark_overflow();
     }
   }
 }
@@ -205,7 +282,7 @@ void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
 }
 
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-             ContactSet& out, uint32_t max_per_leaf) {
+             ContactSet& out, uint32_t max_per_leaf, WorkBudget* budget) {
   const SphereTree& tree = tool.tree();
   if (tree.empty()) return;
   // Tool data shared by every object.
@@ -216,6 +293,8 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   q.leaf_margin = tool.leaf_margins().data();
   q.hits = tool.leaf_hits().data();
   q.max_per_leaf = max_per_leaf;
+  q.leaf_quota = tool.leaf_quota().size() == tool.leaf_margins().size() ? tool.leaf_quota().data() : nullptr;
+  q.budget = budget;
   // One traversal per masked, non-empty object (the mask addresses the first 64).
   const std::size_t n = std::min<std::size_t>(objects.size(), 64);
   for (std::size_t i = 0; i < n; ++i) {
@@ -225,6 +304,7 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
     q.skip_flags = objects[i].surface_only ? kLeafInterior : 0u;
     q.stamp = tool.next_hit_stamp();
     traverse(q, out);
+    if (budget != nullptr && budget->spent()) return;
   }
 }
 
@@ -246,7 +326,7 @@ ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const Collisi
 }
 
 ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-                    double search_mm) {
+                    double search_mm, WorkBudget* budget) {
   ClosestPair best;
   best.gap = std::numeric_limits<double>::infinity();
   const SphereTree& tree = tool.tree();
@@ -265,6 +345,10 @@ ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> obj
     while (top > 0) {
       const BoundedPair pair = stack[--top];
       if (!(pair.bound < bound_limit)) continue;
+      if (budget != nullptr && !budget->take()) {
+        best.complete = false;
+        return best;
+      }
       const SphereNode& a = tn[pair.tool];
       const SphereNode& b = on[pair.object];
       // Two leaves: the bound is the exact gap.
@@ -300,6 +384,75 @@ ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> obj
     }
   }
   return best;
+}
+
+double sphere_closest(const Vec3& center, double radius, const CollisionObject& object, double search_mm,
+                      WorkBudget* budget) {
+  double best = std::numeric_limits<double>::infinity();
+  if (object.tree.empty() || std::isnan(search_mm)) return best;
+  const SphereNode* nodes = object.tree.nodes.data();
+  const uint32_t skip = object.surface_only ? kLeafInterior : 0u;
+  double limit = search_mm;
+  const auto bound = [&](uint32_t o) {
+    return (center - nodes[o].center.cast<double>()).norm() - radius - static_cast<double>(nodes[o].radius);
+  };
+  // Depth first, branch and bound on the gap's lower bound.
+  std::array<uint32_t, kStackSize> stack;
+  int top = 0;
+  if (bound(0) < limit) stack[top++] = 0;
+  while (top > 0) {
+    const uint32_t o = stack[--top];
+    if (budget != nullptr && !budget->take()) return -std::numeric_limits<double>::infinity();
+    const SphereNode& n = nodes[o];
+    if (n.is_leaf()) {
+      const double gap = bound(o);
+      if (!(n.flags & skip) && gap < limit) best = limit = gap;
+      continue;
+    }
+    for (uint32_t c = n.first; c < n.first + n.count; ++c)
+      if (bound(c) < limit && top < kStackSize) stack[top++] = c;
+  }
+  return best;
+}
+
+void sphere_collide(const Vec3& center, double radius, uint16_t tool_leaf, uint16_t object_index,
+                    const CollisionObject& object, double margin_mm, ContactSet& out, WorkBudget* budget) {
+  if (object.tree.empty() || !(margin_mm > -std::numeric_limits<double>::infinity())) return;
+  const SphereNode* nodes = object.tree.nodes.data();
+  const uint32_t skip = object.surface_only ? kLeafInterior : 0u;
+  const auto gap = [&](uint32_t o) {
+    return (center - nodes[o].center.cast<double>()).norm() - radius - static_cast<double>(nodes[o].radius);
+  };
+  std::array<uint32_t, kStackSize> stack;
+  int top = 0;
+  if (gap(0) < margin_mm + kPruneSlack) stack[top++] = 0;
+  while (top > 0) {
+    const uint32_t o = stack[--top];
+    if (budget != nullptr && !budget->take()) {
+      out.mark_overflow();
+      return;
+    }
+    const SphereNode& n = nodes[o];
+    if (n.is_leaf()) {
+      const double g = gap(o);
+      if ((n.flags & skip) || !(g < margin_mm)) continue;
+      Contact c;
+      c.gap = g;
+      c.object_node = o;
+      c.tool_leaf = tool_leaf;
+      c.object = object_index;
+      c.material = n.material;
+      out.push(c);
+      continue;
+    }
+    for (uint32_t ch = n.first; ch < n.first + n.count; ++ch) {
+      if (!(gap(ch) < margin_mm + kPruneSlack)) continue;
+      if (top < kStackSize)
+        stack[top++] = ch;
+      else
+        out.mark_overflow();
+    }
+  }
 }
 
 }  // namespace cariesim

@@ -16,6 +16,7 @@ ContactSet::ContactSet(std::size_t capacity) : items_(capacity) {}
 void ContactSet::clear() {
   size_ = 0;
   overflow_ = false;
+  capped_count_ = 0;
 }
 
 void ContactSet::push(const Contact& c) {

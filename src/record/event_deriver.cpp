@@ -26,6 +26,7 @@ EventDeriver::EventDeriver(double soft_tissue_threshold, double period)
       {false, kFlagLagging, "engine", "lagging", {}},
       {false, kFlagQpActiveSetFull, "engine", "qp_active_set_full", {}},
       {false, kFlagQpIterationLimit, "engine", "qp_iteration_limit", {}},
+      {false, kFlagWorkBudget, "engine", "work_budget", {}},
   }};
 }
 

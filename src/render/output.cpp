@@ -45,6 +45,7 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
   out.lesion = inside ? s.tunnel.lesion : s.tip.lesion;
   out.contacts = trace.contacts;
   out.substeps = trace.substeps;
+  out.work = trace.work;
   out.slips = trace.slips;
 
   // The normal force a force sensor on the tool reads: the rendered force's component along the

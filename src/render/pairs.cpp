@@ -17,6 +17,13 @@ CollisionScratch::CollisionScratch(const Model& model)
   leaf_margin.resize(model.tool.tree.leaf_count());
   order.resize(model.capacities.contacts);
   rank.resize(model.capacities.contacts);
+  // Quotas per tool leaf: the full one within a region's radius of the tip, a smaller one beyond.
+  const SphereTree& tool = model.tool.tree;
+  std::vector<uint32_t> quota(tool.leaf_count(), kStepPairsPerToolLeaf);
+  for (std::size_t i = 0; i < tool.leaf_count(); ++i)
+    if (tool.nodes[tool.leaf_nodes[i]].center.cast<double>().norm() > kRegionRadius)
+      quota[i] = kStepPairsPerFarToolLeaf;
+  placed.set_leaf_quota(quota);
 }
 
 void set_leaf_margins(const Model& m, const ModelConstants& k, double trans, double rot,
@@ -75,12 +82,47 @@ PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g
   return out;
 }
 
+namespace {
+
+// Gap (mm) at g of a pair collide() found: the tool leaf's sphere against the object leaf's.
+inline double sphere_gap(const Model& m, const ModelConstants& k, const Pose& g, const Mat3& rot,
+                         const Contact& con) {
+  const SphereNode& on = m.objects[con.object].tree.nodes[con.object_node];
+  const Vec3 c_t = g.p + rot * k.leaf_local[con.tool_leaf];
+  return (c_t - on.center.cast<double>()).norm() - k.leaf_radius[con.tool_leaf] - static_cast<double>(on.radius);
+}
+
+inline bool in_mask(ObjectMask mask, uint16_t object) { return ((mask >> object) & 1u) != 0; }
+
+// Smallest gap at g (mm) of the tool with the objects in `objects`, from the pairs listed at the
+// sub-step's start: each listed pair, and for a (tool leaf, object) whose quota was full, that leaf
+// against the object's tree. +infinity when nothing is listed. `capped_hit` tells whether a capped
+// combination is among the overlaps beyond `tol` (its pairs are not all listed).
+double listed_worst(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g,
+                    ObjectMask objects, double tol, bool* capped_hit = nullptr) {
+  const Mat3 rot = g.q.toRotationMatrix();
+  double worst = std::numeric_limits<double>::infinity();
+  for (const Contact& con : c.contacts.view())
+    if (in_mask(objects, con.object)) worst = std::min(worst, sphere_gap(m, k, g, rot, con));
+  for (const ContactSet::Capped& cap : c.contacts.capped()) {
+    if (!in_mask(objects, cap.object)) continue;
+    const Vec3 centre = g.p + rot * k.leaf_local[cap.tool_leaf];
+    const double gap = sphere_closest(centre, k.leaf_radius[cap.tool_leaf], m.objects[cap.object], 0.0, &c.budget);
+    worst = std::min(worst, gap);
+    if (capped_hit != nullptr && gap < -tol) *capped_hit = true;
+  }
+  return worst;
+}
+
+}  // namespace
+
 bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g0,
                    ObjectMask mask, PairSet& out) {
   // Every pair within its tool leaf's margin, a bounded number per (tool leaf, object).
   c.placed.place(g0, c.leaf_margin);
   c.contacts.clear();
-  collide(c.placed, m.objects, mask, c.contacts, kStepPairsPerToolLeaf);
+  collide(c.placed, m.objects, mask, c.contacts, kStepPairsPerToolLeaf, &c.budget);
+  c.complete = c.contacts.truncated() ? 0 : mask;
   const std::size_t found = c.contacts.size();
   out.count = 0;
   out.at = g0;
@@ -125,44 +167,85 @@ bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c,
   return false;
 }
 
+namespace {
+
+// Adds a pair found overlapping at a solution to `pairs` (forced, measured at pairs.at) unless it is
+// there already or the set is full.
+void add_forced(const Model& m, const ModelConstants& k, const Contact& con, PairSet& pairs, Recheck& out) {
+  if (pairs.count >= kMaxPairs) return;
+  for (int j = 0; j < pairs.count; ++j) {
+    const PairRef& p = pairs.refs[j];
+    if (p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object) return;
+  }
+  const PairRef ref{con.object_node, con.tool_leaf, con.object, true};
+  pairs.refs[pairs.count] = ref;
+  pairs.geometry[pairs.count] = measure_pair(m, k, pairs.at, ref);
+  ++pairs.count;
+  ++out.added;
+}
+
+}  // namespace
+
 Recheck recheck_rigid(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g1,
                       ObjectMask mask, PairSet& pairs) {
   // The deepest overlap with the rigid objects; within the tolerance nothing changes.
   Recheck out;
   const ObjectMask rigid = mask & k.rigid_mask;
+  const double tol = m.settings.rigid_tolerance;
+  if ((rigid & ~c.complete) == 0) {
+    // Every pair that can overlap at g1 is listed, or its tool leaf is capped: measure them there
+    // instead of traversing the trees.
+    bool capped_hit = false;
+    const double worst = listed_worst(m, k, c, g1, rigid, tol, &capped_hit);
+    out.worst = std::min(worst, 0.0);
+    if (!(worst < -tol)) return out;
+    const Mat3 rot = g1.q.toRotationMatrix();
+    for (const Contact& con : c.contacts.view())
+      if (in_mask(rigid, con.object) && sphere_gap(m, k, g1, rot, con) < -tol) add_forced(m, k, con, pairs, out);
+    if (capped_hit) {
+      // A capped tool leaf overlaps: its overlapping leaves come from the object's tree.
+      c.capped_overlaps.clear();
+      for (const ContactSet::Capped& cap : c.contacts.capped()) {
+        if (!in_mask(rigid, cap.object)) continue;
+        const Vec3 centre = g1.p + rot * k.leaf_local[cap.tool_leaf];
+        sphere_collide(centre, k.leaf_radius[cap.tool_leaf], cap.tool_leaf, cap.object, m.objects[cap.object],
+                       -tol, c.capped_overlaps, &c.budget);
+      }
+      for (const Contact& con : c.capped_overlaps.view()) add_forced(m, k, con, pairs, out);
+    }
+    return out;
+  }
+
   c.placed.place(g1, 0.0);
-  const ClosestPair worst = closest(c.placed, m.objects, rigid, 0.0);
+  const ClosestPair worst = closest(c.placed, m.objects, rigid, 0.0, &c.budget);
+  if (!worst.complete) {
+    // The work budget ran out before the check did: count it as an overlap that cannot be resolved,
+    // so that the sub-step backtracks to where the tool was clear.
+    out.worst = -std::numeric_limits<double>::infinity();
+    return out;
+  }
   out.worst = std::isfinite(worst.gap) ? worst.gap : 0.0;
-  if (!(worst.gap < -m.settings.rigid_tolerance)) return out;
+  if (!(worst.gap < -tol)) return out;
 
   // Overlaps beyond the tolerance: bring every such pair into the set, measured at the rows'
   // configuration like the others.
   std::fill(c.leaf_margin.begin(), c.leaf_margin.end(), 0.0);
   c.placed.place(g1, c.leaf_margin);
   c.contacts.clear();
-  collide(c.placed, m.objects, rigid, c.contacts, kStepPairsPerToolLeaf);
-  for (std::size_t i = 0; i < c.contacts.size() && pairs.count < kMaxPairs; ++i) {
-    const Contact& con = c.contacts[i];
-    if (!(con.gap < -m.settings.rigid_tolerance)) continue;
-    bool known = false;
-    for (int j = 0; j < pairs.count && !known; ++j) {
-      const PairRef& p = pairs.refs[j];
-      known = p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object;
-    }
-    if (known) continue;
-    const PairRef ref{con.object_node, con.tool_leaf, con.object, true};
-    pairs.refs[pairs.count] = ref;
-    pairs.geometry[pairs.count] = measure_pair(m, k, pairs.at, ref);
-    ++pairs.count;
-    ++out.added;
-  }
+  c.complete = 0;
+  collide(c.placed, m.objects, rigid, c.contacts, kStepPairsPerToolLeaf, &c.budget);
+  for (const Contact& con : c.contacts.view())
+    if (con.gap < -tol) add_forced(m, k, con, pairs, out);
   return out;
 }
 
 double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g,
                        ObjectMask mask) {
+  const ObjectMask rigid = mask & k.rigid_mask;
+  if ((rigid & ~c.complete) == 0) return std::min(listed_worst(m, k, c, g, rigid, m.settings.rigid_tolerance), 0.0);
   c.placed.place(g, 0.0);
-  const ClosestPair closest_pair = closest(c.placed, m.objects, mask & k.rigid_mask, 0.0);
+  const ClosestPair closest_pair = closest(c.placed, m.objects, mask & k.rigid_mask, 0.0, &c.budget);
+  if (!closest_pair.complete) return -std::numeric_limits<double>::infinity();  // budget spent: not clear
   return std::isfinite(closest_pair.gap) ? std::min(closest_pair.gap, 0.0) : 0.0;
 }
 

@@ -128,6 +128,12 @@ struct CollisionScratch {
   std::vector<double> leaf_margin;  ///< mm, per tool leaf
   std::vector<uint32_t> order;      ///< contact capacity
   std::vector<uint16_t> rank;       ///< contact capacity
+  /// Objects whose every pair within the leaf margins of the last collect_pairs is in `contacts`
+  /// (none truncated): the re-check and the backtrack of that sub-step read their pairs from there
+  /// instead of traversing the trees again. Cleared when `contacts` is reused for another query.
+  ObjectMask complete = 0;
+  ContactSet capped_overlaps{kMaxPairs};  ///< the re-check's overlaps of capped (tool leaf, object)s
+  WorkBudget budget;                      ///< this step's (StepSettings::work_budget), reset by step()
 };
 
 /// Every tool leaf's margin (mm): the largest distance it can move under a displacement bounded by
@@ -150,9 +156,15 @@ struct Recheck {
 };
 /// Re-check at the solution g1: when the tool overlaps a rigid object in `mask` by more than the
 /// tolerance, every such pair not yet in `pairs` joins it (forced, measured at pairs.at).
+/// g1 must lie within the sub-step's bounds of pairs.at (every tool leaf moved by less than its
+/// margin less the contact margin): a pair that can then overlap was within its margin at pairs.at,
+/// so for objects whose pair list is complete (CollisionScratch::complete) the list is searched
+/// instead of the trees. Rigid objects are met only at their surface (collide() skips their interior
+/// fillers, CollisionObject::surface_only), so the two agree.
 Recheck recheck_rigid(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g1,
                       ObjectMask mask, PairSet& pairs);
 /// Smallest gap (mm) between the tool at g and the rigid objects in `mask`; 0 when nothing overlaps.
+/// As recheck_rigid: g within the sub-step's bounds; complete pair lists are searched instead of trees.
 double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g,
                        ObjectMask mask);
 
@@ -359,6 +371,7 @@ struct StepTrace {
   int contacts = 0;    ///< contact rows in the final solve
   int substeps = 0;    ///< sub-steps taken
   int slips = 0;       ///< anchors that slipped
+  int64_t work = 0;    ///< node pairs the collision queries visited
 };
 
 /// One sub-step's request.

@@ -104,7 +104,8 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand.
   s.collision.placed.place(s.graphic, 0.0);
   const double reach = trans + rot * s.constants.max_reach + m.settings.contact_margin;
-  if (!std::isfinite(closest(s.collision.placed, m.objects, s.constants.all_mask, reach).gap)) {
+  const ClosestPair near = closest(s.collision.placed, m.objects, s.constants.all_mask, reach, &s.collision.budget);
+  if (near.complete && !std::isfinite(near.gap)) {
     s.graphic = haptic;
     s.regions.count = 0;
     release_anchors(s.anchors);
@@ -126,7 +127,9 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   Pose g = s.graphic;
   bool reached = false;
   int k = 0;
-  while (!reached && k < std::max(1, m.settings.max_substeps)) {
+  // The work budget ends the sub-steps early (the first always runs, held where it is clear when the
+  // budget runs out inside it).
+  while (!reached && k < std::max(1, m.settings.max_substeps) && (k == 0 || !s.collision.budget.spent())) {
     req.target = config_difference(haptic, g);
     g = solve_substep(m, p, s, g, req, trace, reached);
     req.trans_bound = std::min(2.0 * req.trans_bound, m.settings.trust_step);
@@ -178,6 +181,7 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   if (!state.built_for(m) || p.materials.size() != m.defaults.materials.size()) return refused_output();
   StateImpl& s = state.impl();
   StepTrace trace;
+  s.collision.budget = WorkBudget{std::max<int64_t>(m.settings.work_budget, 0), 0};
 
   // Input checks: a non-finite pose reuses the last good one; a jump beyond max_jump, or a turn beyond
   // max_jump_rotation, is flagged (the sub-step budget then limits how far the graphic tool follows
@@ -209,6 +213,8 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   s.last_haptic = haptic;
   s.have_haptic = true;
   ++s.steps;
+  trace.work = s.collision.budget.used;
+  if (s.collision.budget.spent()) trace.flags |= kFlagWorkBudget;
   return make_output(m, p, s, haptic, trace, start);
 }
 

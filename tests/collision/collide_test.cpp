@@ -312,6 +312,103 @@ TEST(Collide, ClosestMatchesBruteForce) {
   }
 }
 
+// One sphere against a tree (the step's re-check of a capped tool leaf): the smallest gap and every
+// leaf within a margin, as brute force finds them; interior fillers of a surface-only object skipped.
+TEST(Collide, SphereQueriesMatchBruteForce) {
+  std::mt19937 rng(11);
+  std::vector<LeafSphere> leaves = random_leaves(2000, rng, Vec3f::Zero(), 3.0f, 0.05f, 0.3f);
+  for (std::size_t i = 0; i < leaves.size(); i += 3) leaves[i].flags = kLeafInterior;
+  CollisionObject object = make_object(leaves, 4, "a");
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    object.surface_only = trial % 2 == 0;
+    const Vec3 c(u(rng), u(rng), u(rng));
+    const double r = 0.1 + 0.05 * (trial % 5);
+    const double margin = trial % 4 == 0 ? -0.05 : 0.1;
+    double want = std::numeric_limits<double>::infinity();
+    std::size_t within = 0;
+    for (uint32_t on : object.tree.leaf_nodes) {
+      const SphereNode& n = object.tree.nodes[on];
+      if (object.surface_only && (n.flags & kLeafInterior)) continue;
+      const double gap = (c - n.center.cast<double>()).norm() - r - n.radius;
+      want = std::min(want, gap);
+      within += gap < margin;
+    }
+    EXPECT_NEAR(sphere_closest(c, r, object, 100.0), want, 1e-9) << trial;
+    EXPECT_TRUE(std::isinf(sphere_closest(c, r, object, want - 1e-3))) << trial;
+    ContactSet set(4096);
+    sphere_collide(c, r, 7, 2, object, margin, set);
+    EXPECT_EQ(set.size(), within) << trial;
+    for (const Contact& con : set.view()) {
+      EXPECT_EQ(con.tool_leaf, 7);
+      EXPECT_EQ(con.object, 2);
+      EXPECT_LT(con.gap, margin);
+    }
+  }
+}
+
+// A per-leaf quota keeps each tool leaf's pairs to its quota, notes every (tool leaf, object) it cut,
+// and leaves every other combination complete.
+TEST(Collide, QuotaNotesTheCappedCombinations) {
+  std::mt19937 rng(3);
+  const SphereTree tool = build_hierarchy(random_leaves(60, rng, Vec3f(0, 0, 0.5f), 1.5f, 0.1f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(3000, rng, Vec3f::Zero(), 2.0f, 0.05f, 0.2f), 4, "a"));
+  PlacedTool placed(tool);
+  std::vector<uint32_t> quota(tool.leaf_count(), 3);
+  quota[0] = 1000;
+  placed.set_leaf_quota(quota);
+  placed.place(Pose{}, 0.1);
+  ContactSet set(1 << 16);
+  collide(placed, objects, kAllObjects, set, 64);
+  ASSERT_FALSE(set.truncated());
+  std::map<uint16_t, std::size_t> per_leaf;
+  for (const Contact& c : set.view()) ++per_leaf[c.tool_leaf];
+  const std::vector<double> margins(tool.leaf_count(), 0.1);
+  const std::map<PairKey, BrutePair> all = brute_force(tool, Pose{}, margins, objects, kAllObjects);
+  std::map<uint16_t, std::size_t> want;
+  for (const auto& [key, pair] : all) ++want[std::get<0>(key)];
+  std::size_t capped = 0;
+  for (const auto& [leaf, n] : want) {
+    const std::size_t limit = leaf == 0 ? 64 : 3;
+    EXPECT_EQ(per_leaf[leaf], std::min(n, limit)) << "leaf " << leaf;
+    bool noted = false;
+    for (const ContactSet::Capped& c : set.capped()) noted = noted || c.tool_leaf == leaf;
+    EXPECT_EQ(noted, n > limit) << "leaf " << leaf;
+    capped += n > limit;
+  }
+  EXPECT_GT(capped, 0u);
+  EXPECT_EQ(set.capped().size(), capped);
+}
+
+// A work budget stops the queries where they are and says so.
+TEST(Collide, WorkBudgetStopsTheQueries) {
+  std::mt19937 rng(8);
+  const SphereTree tool = build_hierarchy(random_leaves(100, rng, Vec3f(0, 0, 0), 2.0f, 0.05f, 0.3f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(3000, rng, Vec3f::Zero(), 3.0f, 0.05f, 0.3f), 4, "a"));
+  PlacedTool placed(tool);
+  placed.place(Pose{}, 0.05);
+  ContactSet full(1 << 16), cut(1 << 16);
+  WorkBudget unbounded;
+  collide(placed, objects, kAllObjects, full, 1 << 20, &unbounded);
+  ASSERT_FALSE(full.overflow());
+  ASSERT_GT(unbounded.used, 200);
+  WorkBudget small{100, 0};
+  collide(placed, objects, kAllObjects, cut, 1 << 20, &small);
+  EXPECT_TRUE(cut.overflow());
+  EXPECT_TRUE(small.spent());
+  EXPECT_EQ(small.used, 100);
+  EXPECT_LT(cut.size(), full.size());
+
+  WorkBudget none{0, 0};
+  EXPECT_FALSE(closest(placed, objects, kAllObjects, 0.0, &none).complete);
+  WorkBudget plenty;
+  EXPECT_TRUE(closest(placed, objects, kAllObjects, 0.0, &plenty).complete);
+  WorkBudget spent{0, 0};
+  EXPECT_EQ(sphere_closest(Vec3::Zero(), 0.2, objects[0], 1.0, &spent), -std::numeric_limits<double>::infinity());
+}
+
 // Coincident centres and zero radii give finite contacts; the normal falls back to the tool axis.
 TEST(Collide, CoincidentCentresAndZeroRadiiStayFinite) {
   std::vector<LeafSphere> obj_leaves(2);

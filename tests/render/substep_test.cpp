@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "render/render_support.hpp"
 #include "render/state_impl.hpp"
@@ -146,6 +147,48 @@ TEST(Substep, ReCheckBringsInThePairsTheRowsMissed) {
 
 // Without a re-check pass to spare, the overlap the rows missed is backtracked: the step is shortened
 // until the tool is clear, and flagged.
+// The re-check and the backtrack read the rigid overlaps at a solution from the pairs collected at
+// the sub-step's start instead of the trees (issue #11): for any motion within the sub-step's bounds
+// they give what a full tree search gives, also where a tool leaf's quota of pairs was full.
+TEST(Substep, ReCheckFromTheCollectedPairsMatchesTheTrees) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -3.0;
+  spec.x1 = spec.y1 = 3.0;
+  spec.radius = 0.3;
+  spec.spacing = 0.1;  // dense: the tip region's leaves and the shank's reach their quotas
+  const Model m = test::model(
+      {test::object("rough", test::slab(spec, [](const Vec3&) { return 0; }), ObjectKind::Rigid)},
+      {test::enamel()});
+  StateImpl s(m);
+  PlacedTool placed(m.tool.tree);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int capped = 0, overlapping = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const double trans = 0.1, rot = 0.02;  // mm, rad: the trust region
+    const Quat tilt(Eigen::AngleAxisd(0.6 * u(rng), Vec3(u(rng), u(rng), 0.0).normalized()));
+    const Pose g0{Vec3(0.5 * u(rng), 0.5 * u(rng), kTip + 0.05 * u(rng)), tilt};
+    set_leaf_margins(m, s.constants, trans, rot, s.collision);
+    collect_pairs(m, s.constants, s.collision, g0, s.constants.all_mask, s.pairs);
+    ASSERT_EQ(s.collision.complete, s.constants.all_mask) << trial;
+    capped += !s.collision.contacts.capped().empty();
+    for (int k = 0; k < 10; ++k) {
+      Vec6 d;
+      d.head<3>() = Vec3(u(rng), u(rng), u(rng)).normalized() * trans * std::abs(u(rng));
+      d.tail<3>() = Vec3(u(rng), u(rng), u(rng)).normalized() * rot * std::abs(u(rng));
+      const Pose g1 = apply_displacement(g0, d);
+      placed.place(g1, 0.0);
+      const ClosestPair tree = closest(placed, m.objects, s.constants.rigid_mask, 0.0);
+      const double want = std::isfinite(tree.gap) ? std::min(tree.gap, 0.0) : 0.0;
+      EXPECT_NEAR(rigid_clearance(m, s.constants, s.collision, g1, s.constants.all_mask), want, 1e-9)
+          << trial << " " << k;
+      overlapping += want < 0.0;
+    }
+  }
+  EXPECT_GT(capped, 0);         // the capped tool leaves were searched in the trees
+  EXPECT_GT(overlapping, 100);  // and the motions did overlap
+}
+
 TEST(Substep, BacktracksWhatTheReCheckCannotFix) {
   test::SlabSpec spec;
   spec.x0 = spec.y0 = -3.0;

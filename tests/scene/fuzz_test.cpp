@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <random>
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/render/step.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/scene/trajectory.hpp"
 
@@ -127,6 +129,41 @@ TEST(SceneParserFuzz, Issue14InputsAreRefusedWhereTheyAre) {
       EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
     }
   }
+}
+
+// Issue #14 item 10: valid but extreme parameters (a tool of the finest sphere chain and the thickest
+// handle allowed, tissue of almost no stiffness, the whole tool pressed through it, the hand far off)
+// made steps of several ms. The step's collision work is bounded (StepSettings::work_budget, in node
+// pairs, docs/step.md): every step stays within it, says when it ran out, and stays finite and bounded.
+TEST(SceneParserFuzz, Issue14ExtremeParametersStayWithinTheStepsWorkBudget) {
+  const std::string yaml =
+      "objects:\n"
+      "  - name: soft\n"
+      "    shape: {type: cuboid, size: [40, 12, 6]}\n"
+      "    kind: soft\n"
+      "    material: {stiffness: 1e-6}\n"
+      "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
+      "tool:\n"
+      "  max_gap: 0.001\n"
+      "  handle_radius: 20\n"
+      "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n";
+  const Model m = build_model(parse_scene(yaml, "extreme.yaml"));
+  State s(m, m.tool_home);
+  bool ran_out = false;
+  int64_t most = 0;
+  for (int i = 0; i < 60; ++i) {
+    // The hand sinks 1 mm per step through the block and 20 mm beyond.
+    Pose hand = m.tool_home;
+    hand.p.z() -= std::min(1.0 * i, 28.0);
+    const StepOutput out = step(m, s, HapticInput{hand, 0.001});
+    EXPECT_LE(out.work, m.settings.work_budget) << i;
+    ran_out = ran_out || (out.flags & kFlagWorkBudget);
+    most = std::max(most, out.work);
+    ASSERT_TRUE(out.force.allFinite() && out.torque.allFinite() && out.graphic.p.allFinite()) << i;
+    EXPECT_LE(out.force.norm(), m.defaults.limits.max_force + 1e-9) << i;
+    EXPECT_LE(out.torque.norm(), m.defaults.limits.max_torque + 1e-9) << i;
+  }
+  EXPECT_TRUE(ran_out) << "most node pairs in a step: " << most;
 }
 
 // Random edits of a trajectory file parse or throw cariesim::Error located in it; and the issue #14

@@ -4,6 +4,7 @@
 /// by a pose. The query prunes with inner spheres (dual traversal) and never allocates: the contact
 /// set has a fixed capacity chosen when it is created.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -59,11 +60,32 @@ class ContactSet {
   void push(const Contact& c);
   /// Flags the set as incomplete without adding a pair (a query had to drop work it could not hold).
   void mark_overflow() { overflow_ = true; }
+  /// A (tool leaf, object) whose quota of pairs was full: more of its pairs may qualify than are listed.
+  struct Capped {
+    uint16_t tool_leaf = 0;
+    uint16_t object = 0;
+  };
+  static constexpr std::size_t kMaxCapped = 64;
+  /// Notes that (tool leaf, object) may have left qualifying pairs out (its quota was full); beyond
+  /// kMaxCapped such notes the set counts as truncated everywhere.
+  void note_capped(uint16_t tool_leaf, uint16_t object) {
+    if (capped_count_ < capped_.size()) capped_[capped_count_] = {tool_leaf, object};
+    ++capped_count_;
+  }
+  /// The (tool leaf, object) combinations noted by note_capped.
+  [[nodiscard]] std::span<const Capped> capped() const {
+    return {capped_.data(), std::min(capped_count_, capped_.size())};
+  }
+  /// True when pairs may be missing anywhere (an overflow, or too many capped combinations); when
+  /// false, every pair within the query's margins is in the set except those of capped() combinations.
+  [[nodiscard]] bool truncated() const { return overflow_ || capped_count_ > capped_.size(); }
 
  private:
   std::vector<Contact> items_;  // reserved once; never grows
   std::size_t size_ = 0;
   bool overflow_ = false;
+  std::array<Capped, kMaxCapped> capped_{};
+  std::size_t capped_count_ = 0;
 };
 
 /// The tool placed in the world for one query: world-space copies of its nodes, plus a per-leaf
@@ -81,6 +103,10 @@ class PlacedTool {
   [[nodiscard]] std::span<const Vec3> centers() const { return centers_; }             ///< world, per node
   [[nodiscard]] std::span<const double> radii() const { return radii_; }               ///< per node, inflated
   [[nodiscard]] std::span<const double> leaf_margins() const { return leaf_margin_; }  ///< mm, per leaf
+  /// Per-leaf quotas of pairs per object for collide() (each capped by its `max_per_leaf`); an empty
+  /// table (the default) leaves `max_per_leaf` alone. Size = tool leaf count.
+  void set_leaf_quota(std::span<const uint32_t> quota) { leaf_quota_.assign(quota.begin(), quota.end()); }
+  [[nodiscard]] std::span<const uint32_t> leaf_quota() const { return leaf_quota_; }
 
   /// Scratch of collide(): pairs reported per tool leaf for the object being traversed.
   struct LeafHits {
@@ -97,6 +123,7 @@ class PlacedTool {
   std::vector<Vec3> centers_;
   std::vector<double> radii_;        // inflated radii used for pruning and the pair test
   std::vector<double> leaf_margin_;  // per leaf
+  std::vector<uint32_t> leaf_quota_;  // per leaf, or empty
   mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
   mutable uint32_t hit_stamp_ = 0;
 };
@@ -104,7 +131,30 @@ class PlacedTool {
 /// Pairs per (tool leaf, object) the haptic step asks collide() for: a large handle sphere pressed
 /// into soft tissue overlaps hundreds of its leaves, which would crowd out every other contact from
 /// a bounded pair list (the step keeps at most three rows per leaf and object).
-inline constexpr uint32_t kStepPairsPerToolLeaf = 64;
+inline constexpr uint32_t kStepPairsPerToolLeaf = 16;
+/// The same for tool leaves away from the tip (the working end, shank and handle; issue #11): a shank
+/// resting on a tooth touches it with dozens of leaves, each overlapping dozens of the tooth's small
+/// leaves, and their nearest few already give its rows (at most three per leaf and object).
+inline constexpr uint32_t kStepPairsPerFarToolLeaf = 16;
+
+/// A bound on the work of a sequence of queries (the haptic step's, DESIGN.md §4): node pairs the
+/// traversals may still visit. A query that runs out stops where it is and says so (collide(): the
+/// contact set overflows; closest(): ClosestPair::complete is false; sphere_closest(): -infinity).
+struct WorkBudget {
+  int64_t left = std::numeric_limits<int64_t>::max();  ///< node pairs
+  int64_t used = 0;                                     ///< node pairs visited so far
+  /// Takes one node pair; false (and spent from then on) when none is left.
+  bool take() {
+    if (left <= 0) {
+      left = -1;
+      return false;
+    }
+    --left;
+    ++used;
+    return true;
+  }
+  [[nodiscard]] bool spent() const { return left < 0; }
+};
 
 /// Which objects take part in a query (bit i = object i); at most 64 objects.
 using ObjectMask = uint64_t;
@@ -113,9 +163,14 @@ inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 /// Appends every (tool leaf, object leaf) pair whose gap is below the tool leaf's margin.
 /// `gap` is computed with the true (uninflated) radii. Leaves flagged kLeafInterior of
 /// `surface_only` objects are skipped; each tool leaf reports at most `max_per_leaf` pairs per object
-/// (the first found, depth first; not necessarily the nearest).
+/// (or its PlacedTool::leaf_quota when lower; the nearest first as far as the depth-first descent, which
+/// visits siblings nearest first, finds them): once its quota is full the traversal
+/// no longer descends below that leaf for that object, and the combination is noted in `out.capped()`.
+/// With a `budget`, each node pair visited takes one unit; when it is spent the traversal stops and
+/// the set is marked overflowing.
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-             ContactSet& out, uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max());
+             ContactSet& out, uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max(),
+             WorkBudget* budget = nullptr);
 
 /// Sphere-against-sphere geometry of a pair, computed on demand (collide() reports ids and gaps only).
 struct ContactGeometry {
@@ -135,8 +190,23 @@ struct ClosestPair {
   uint16_t tool_leaf = 0;
   uint16_t object = 0;
   uint32_t object_node = 0;
+  bool complete = true;  ///< false when the work budget ran out: a smaller gap may exist
 };
 ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-                    double search_mm);
+                    double search_mm, WorkBudget* budget = nullptr);
+
+/// Smallest gap (mm) between one sphere (world centre, radius in mm) and the leaves of `object`
+/// (without the kLeafInterior fillers of a `surface_only` object, as collide()), when below
+/// `search_mm`; +infinity otherwise; -infinity when the work budget ran out first. No allocation.
+double sphere_closest(const Vec3& center, double radius, const CollisionObject& object, double search_mm,
+                      WorkBudget* budget = nullptr);
+
+/// Every leaf of `object` (without the kLeafInterior fillers of a `surface_only` object) whose gap to
+/// one sphere (world centre, radius in mm) is below `margin_mm`, pushed to `out` as contacts of tool
+/// leaf `tool_leaf` with object index `object_index`. No allocation. A spent budget stops it and marks
+/// `out` overflowing.
+void sphere_collide(const Vec3& center, double radius, uint16_t tool_leaf, uint16_t object_index,
+                    const CollisionObject& object, double margin_mm, ContactSet& out,
+                    WorkBudget* budget = nullptr);
 
 }  // namespace cariesim

@@ -51,6 +51,11 @@ struct StepSettings {
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
   double max_give_speed = 40.0;
+  /// Node pairs the collision queries of one step may visit (docs/step.md "Work budget"): bounds the
+  /// step's time whatever the trees, the tool or the materials (about 25 ns each on one core of the
+  /// reference machine, so 30000 keep collision under 1 ms). Beyond it no further sub-step starts, a
+  /// query cut short counts as an overlap (the tool holds where it was clear), and kFlagWorkBudget is set.
+  int64_t work_budget = 30000;
 };
 
 /// Capacities fixed at build time (scratch memory is reserved then).

@@ -36,6 +36,7 @@ enum StepFlag : uint32_t {
   kFlagWrongState = 1u << 9,         ///< the state or params were made for another model; nothing was done
   kFlagQpActiveSetFull = 1u << 10,   ///< more rows wanted to be active than the QP holds; last iterate used
   kFlagQpIterationLimit = 1u << 11,  ///< the QP ran out of dual steps; its last iterate was used
+  kFlagWorkBudget = 1u << 12,        ///< the step's collision work budget ran out (StepSettings::work_budget)
 };
 
 /// One contact as reported to the viewer / logs (the strongest few).
@@ -79,6 +80,7 @@ struct StepOutput {
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;            ///< µs, wall time of this step
   int substeps = 0;                ///< sub-steps taken (trust region, DESIGN.md §4 step 3)
+  int64_t work = 0;                ///< node pairs the step's collision queries visited (its work budget's unit)
   int slips = 0;                   ///< friction anchors that slipped this step (saw-tooth events)
   std::array<ContactReport, kMaxReportedContacts> contact_reports{};
   int contact_report_count = 0;
