@@ -23,24 +23,6 @@ class StudyCommand : public ScratchTest {
   StudyCommand() : ScratchTest("cariesim_study_") {}
 };
 
-// The `cariesim study` command lines of the first ```sh block after the section's heading, without
-// their trailing `# comments`.
-std::vector<std::string> study_examples(const std::string& doc) {
-  std::vector<std::string> commands;
-  const std::size_t section = doc.find("## `cariesim study");
-  if (section == std::string::npos) return commands;
-  const std::size_t open = doc.find("```sh\n", section);
-  const std::size_t close = doc.find("```", open + 6);
-  std::istringstream block(doc.substr(open + 6, close - open - 6));
-  std::string line;
-  while (std::getline(block, line)) {
-    if (const std::size_t hash = line.find(" #"); hash != std::string::npos) line.erase(hash);
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    if (line.rfind("cariesim study", 0) == 0) commands.push_back(line);
-  }
-  return commands;
-}
-
 // Runs `command` (a line starting with "cariesim") from the repository's root, with `--out class.db`
 // pointed into `dir`; returns the exit status, the output in `out`.
 int run_example(std::string command, const fs::path& dir, std::string& out) {
@@ -58,7 +40,8 @@ int run_example(std::string command, const fs::path& dir, std::string& out) {
 
 TEST_F(StudyCommand, TheDocExamplesRunAndFillOneDatabase) {
   const std::vector<std::string> examples =
-      study_examples(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"));
+      cariesim::test::doc_commands(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"),
+                                   "## `cariesim study", "cariesim study");
   ASSERT_EQ(examples.size(), 5u) << "docs/cli.md has the `cariesim study` example block";
   for (const std::string& command : examples) {
     SCOPED_TRACE(command);

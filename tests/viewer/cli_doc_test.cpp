@@ -26,25 +26,6 @@ int shell(const std::string& command) {
   return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
 }
 
-// The command lines starting with `cariesim` in the first ```sh block after the `cariesim run`
-// heading, without their trailing `# comments`.
-std::vector<std::string> run_examples(const std::string& doc) {
-  std::vector<std::string> commands;
-  const std::size_t section = doc.find("## `cariesim run");
-  if (section == std::string::npos) return commands;
-  const std::size_t open = doc.find("```sh\n", section);
-  if (open == std::string::npos) return commands;
-  const std::size_t close = doc.find("```", open + 6);
-  std::istringstream block(doc.substr(open + 6, close - open - 6));
-  std::string line;
-  while (std::getline(block, line)) {
-    if (const std::size_t hash = line.find(" #"); hash != std::string::npos) line.erase(hash);
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    if (line.rfind("cariesim", 0) == 0) commands.push_back(line);
-  }
-  return commands;
-}
-
 bool contains(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;
 }
@@ -52,7 +33,8 @@ bool contains(const std::string& text, const std::string& what) {
 TEST(CliDoc, RunExamplesRun) {
   if (shell("command -v xvfb-run >/dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run is not installed";
   const std::vector<std::string> examples =
-      run_examples(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"));
+      cariesim::test::doc_commands(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"),
+                                   "## `cariesim run", "cariesim");
   ASSERT_GE(examples.size(), 4U) << "docs/cli.md has the `cariesim run` example block";
 
   // A scratch folder with the repository's scenes/ (the examples' relative paths).
