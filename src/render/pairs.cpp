@@ -172,11 +172,18 @@ namespace {
 // Adds a pair found overlapping at a solution to `pairs` (forced, measured at pairs.at) unless it is
 // there already or the set is full.
 void add_forced(const Model& m, const ModelConstants& k, const Contact& con, PairSet& pairs, Recheck& out) {
-  if (pairs.count >= kMaxPairs) return;
   for (int j = 0; j < pairs.count; ++j) {
-    const PairRef& p = pairs.refs[j];
-    if (p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object) return;
+    PairRef& p = pairs.refs[j];
+    if (p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object) {
+      // Listed but left without a row (its normal was close to a deeper pair's): it gets one now.
+      if (!p.forced) {
+        p.forced = true;
+        ++out.added;
+      }
+      return;
+    }
   }
+  if (pairs.count >= kMaxPairs) return;
   const PairRef ref{con.object_node, con.tool_leaf, con.object, true};
   pairs.refs[pairs.count] = ref;
   pairs.geometry[pairs.count] = measure_pair(m, k, pairs.at, ref);
