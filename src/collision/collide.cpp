@@ -37,6 +37,9 @@ struct Query {
   uint16_t object;
   uint32_t skip_flags;             // object leaves with any of these flags are not reported
   PlacedTool::LeafHits* hits;      // per tool leaf: pairs reported for this object (stamped)
+  PlacedTool::LeafHits* caps;      // per tool node: leaves below it capped for this object (stamped)
+  const uint32_t* parent;          // per tool node
+  const uint32_t* leaves_below;    // per tool node
   uint32_t stamp;                  // this object's traversal
   uint32_t max_per_leaf;           // pairs a tool leaf may report for this object
   const uint32_t* leaf_quota;      // per tool leaf, lower quotas (null: max_per_leaf for all)
@@ -54,12 +57,27 @@ inline bool quota_full(const Query& q, const SphereNode& tool_node) {
   return tool_node.is_leaf() && hits.stamp == q.stamp && hits.count >= quota(q, tool_node.leaf);
 }
 
-// A pair of a tool leaf whose quota is full is left out: the first time, note the combination (the
-// count goes one past the quota to remember it).
-inline void leave_out(const Query& q, PlacedTool::LeafHits& hits, uint32_t leaf, ContactSet& out) {
+// True when every leaf below tool node t (t itself for a leaf) has left out a pair for the object
+// being traversed (is capped): nothing more below t need be tested.
+inline bool all_capped(const Query& q, uint32_t t) {
+  const PlacedTool::LeafHits& caps = q.caps[t];
+  return caps.stamp == q.stamp && caps.count >= q.leaves_below[t];
+}
+
+// A pair of tool leaf node t whose quota is full is left out: the first time, note the combination
+// (the count goes one past the quota to remember it) and count the leaf as capped in every ancestor.
+inline void leave_out(const Query& q, uint32_t t, ContactSet& out) {
+  const uint32_t leaf = q.tool_nodes[t].leaf;
+  PlacedTool::LeafHits& hits = q.hits[leaf];
   if (hits.count != quota(q, leaf)) return;
   ++hits.count;
   out.note_capped(static_cast<uint16_t>(leaf), q.object);
+  for (uint32_t n = t;; n = q.parent[n]) {
+    PlacedTool::LeafHits& caps = q.caps[n];
+    if (caps.stamp != q.stamp) caps = {q.stamp, 0};
+    ++caps.count;
+    if (n == q.parent[n]) break;
+  }
 }
 
 // Squared distance (mm²) between the centres of a tool node and an object node.
@@ -100,13 +118,14 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
   const SphereNode& tn = q.tool_nodes[t];
   const SphereNode& on = q.object_nodes[o];
   if (on.flags & q.skip_flags) return;
+  if (all_capped(q, t)) return;
   const Vec3 d = q.tool_centers[t] - on.center.cast<double>();
   const double gap = d.norm() - static_cast<double>(tn.radius) - static_cast<double>(on.radius);
   if (!(gap < q.leaf_margin[tn.leaf])) return;
   PlacedTool::LeafHits& hits = q.hits[tn.leaf];
   if (hits.stamp != q.stamp) hits = {q.stamp, 0};
   if (hits.count >= quota(q, tn.leaf)) {
-    leave_out(q, hits, tn.leaf, out);
+    leave_out(q, t, out);
     return;
   }
   ++hits.count;
@@ -135,9 +154,11 @@ void traverse(const Query& q, ContactSet& out) {
     }
     const SphereNode& tn = q.tool_nodes[pair.tool];
     const SphereNode& on = q.object_nodes[pair.object];
-    // A tool leaf whose quota is full reports nothing more for this object: skip what is below.
+    // A tool leaf whose quota is full reports nothing more for this object, nor a tool node whose
+    // leaves are all capped: skip what is below.
+    if (all_capped(q, pair.tool)) continue;
     if (quota_full(q, tn)) {
-      leave_out(q, q.hits[tn.leaf], tn.leaf, out);
+      leave_out(q, pair.tool, out);
       continue;
     }
     // Both leaves: only reached for the roots (pairs below are tested as they are generated).
@@ -156,6 +177,8 @@ void traverse(const Query& q, ContactSet& out) {
     for (uint32_t child = split.first; child < end; ++child) {
       const uint32_t t = split_tool ? child : pair.tool;
       const uint32_t o = split_tool ? pair.object : child;
+      // A tool node whose leaves are all capped for this object needs no more tests.
+      if (split_tool && all_capped(q, t)) continue;
       const double d2 = distance2(q, t, o);
       if (!overlaps(q, t, o, d2)) continue;
       if (kid_count < static_cast<int>(kids.size())) {
@@ -232,12 +255,26 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
   radii_.assign(tool.nodes.size(), 0.0);
   leaf_margin_.assign(tool.leaf_count(), 0.0);
   leaf_hits_.assign(tool.leaf_count(), LeafHits{});
+  node_caps_.assign(tool.nodes.size(), LeafHits{});
+  // Parents and leaf counts (children follow their parent, so one reverse sweep sums them).
+  parent_.assign(tool.nodes.size(), 0);
+  leaves_below_.assign(tool.nodes.size(), 0);
+  for (std::size_t i = 0; i < tool.nodes.size(); ++i) {
+    const SphereNode& n = tool.nodes[i];
+    for (uint32_t c = n.first; c < n.first + n.count; ++c) parent_[c] = static_cast<uint32_t>(i);
+  }
+  for (std::size_t i = tool.nodes.size(); i-- > 0;) {
+    const SphereNode& n = tool.nodes[i];
+    if (n.is_leaf()) leaves_below_[i] = 1;
+    for (uint32_t c = n.first; c < n.first + n.count; ++c) leaves_below_[i] += leaves_below_[c];
+  }
 }
 
 uint32_t PlacedTool::next_hit_stamp() const {
   // Stamps tell one traversal's counters from older ones without clearing the table each time.
   if (++hit_stamp_ == 0) {
     std::fill(leaf_hits_.begin(), leaf_hits_.end(), LeafHits{});
+    std::fill(node_caps_.begin(), node_caps_.end(), LeafHits{});
     hit_stamp_ = 1;
   }
   return hit_stamp_;
@@ -292,6 +329,9 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   q.tool_radii = tool.radii().data();
   q.leaf_margin = tool.leaf_margins().data();
   q.hits = tool.leaf_hits().data();
+  q.caps = tool.node_caps().data();
+  q.parent = tool.parents().data();
+  q.leaves_below = tool.leaves_below().data();
   q.max_per_leaf = max_per_leaf;
   q.leaf_quota = tool.leaf_quota().size() == tool.leaf_margins().size() ? tool.leaf_quota().data() : nullptr;
   q.budget = budget;
@@ -325,8 +365,12 @@ ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const Collisi
   return out;
 }
 
-ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-                    double search_mm, WorkBudget* budget) {
+namespace {
+
+// Branch and bound over the tool and the masked objects' trees (closest() and any_within()): with
+// `first`, returns at the first leaf pair within the search radius.
+ClosestPair bounded_search(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+                           double search_mm, WorkBudget* budget, bool first) {
   ClosestPair best;
   best.gap = std::numeric_limits<double>::infinity();
   const SphereTree& tree = tool.tree();
@@ -355,6 +399,7 @@ ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> obj
       if (a.is_leaf() && b.is_leaf()) {
         bound_limit = pair.bound;
         best = {pair.bound, static_cast<uint16_t>(a.leaf), static_cast<uint16_t>(i), pair.object};
+        if (first) return best;
         continue;
       }
       // Split the larger sphere; keep the children that can still beat the best gap.
@@ -384,6 +429,18 @@ ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> obj
     }
   }
   return best;
+}
+
+}  // namespace
+
+ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+                    double search_mm, WorkBudget* budget) {
+  return bounded_search(tool, objects, mask, search_mm, budget, false);
+}
+
+ClosestPair any_within(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+                       double search_mm, WorkBudget* budget) {
+  return bounded_search(tool, objects, mask, search_mm, budget, true);
 }
 
 double sphere_closest(const Vec3& center, double radius, const CollisionObject& object, double search_mm,

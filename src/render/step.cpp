@@ -104,7 +104,8 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand.
   s.collision.placed.place(s.graphic, 0.0);
   const double reach = trans + rot * s.constants.max_reach + m.settings.contact_margin;
-  const ClosestPair near = closest(s.collision.placed, m.objects, s.constants.all_mask, reach, &s.collision.budget);
+  const ClosestPair near =
+      any_within(s.collision.placed, m.objects, s.constants.all_mask, reach, &s.collision.budget);
   if (near.complete && !std::isfinite(near.gap)) {
     s.graphic = haptic;
     s.regions.count = 0;

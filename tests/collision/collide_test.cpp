@@ -381,6 +381,61 @@ TEST(Collide, QuotaNotesTheCappedCombinations) {
   EXPECT_EQ(set.capped().size(), capped);
 }
 
+// A tool whose leaves are all capped for an object is not descended further: with a small quota, a
+// cluster of tool leaves sunk in a dense object costs a fraction of the node pairs that listing every
+// overlap does (and reports the same pairs as the quota test above requires: the quota, noted).
+TEST(Collide, ToolNodesWhoseLeavesAreAllCappedAreNotDescended) {
+  std::mt19937 rng(21);
+  const SphereTree tool = build_hierarchy(random_leaves(16, rng, Vec3f::Zero(), 0.3f, 0.04f, 0.06f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(6000, rng, Vec3f::Zero(), 0.6f, 0.05f, 0.15f), 4, "a"));
+  PlacedTool placed(tool);
+  placed.place(Pose{}, 0.05);
+  ContactSet all(1 << 16), some(1 << 16);
+  WorkBudget listing, capped;
+  collide(placed, objects, kAllObjects, all, 1 << 20, &listing);
+  collide(placed, objects, kAllObjects, some, 2, &capped);
+  ASSERT_GT(all.size(), 16u * 10u) << "every tool leaf overlaps many object leaves";
+  EXPECT_EQ(some.size(), 2u * tool.leaf_count());
+  EXPECT_EQ(some.capped().size(), tool.leaf_count());
+  EXPECT_LT(capped.used * 4, listing.used) << "capped " << capped.used << " listing " << listing.used;
+}
+
+// any_within() answers "is anything within the radius?" as closest() does, with a pair that is, and
+// stops at the first one it meets.
+TEST(Collide, AnyWithinAgreesWithClosestAndStopsEarly) {
+  std::mt19937 rng(9);
+  const SphereTree tool = build_hierarchy(random_leaves(80, rng, Vec3f(0, 0, 3), 2.0f, 0.05f, 0.3f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(2500, rng, Vec3f::Zero(), 3.0f, 0.05f, 0.3f), 4, "a"));
+  PlacedTool placed(tool);
+  int near = 0, cheaper = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    placed.place(random_pose(rng, 6.0), 0.0);
+    const double search = 0.2;
+    WorkBudget full, first;
+    const ClosestPair best = closest(placed, objects, kAllObjects, search, &full);
+    const ClosestPair any = any_within(placed, objects, kAllObjects, search, &first);
+    ASSERT_TRUE(best.complete && any.complete);
+    EXPECT_EQ(std::isfinite(any.gap), std::isfinite(best.gap)) << trial;
+    EXPECT_LE(first.used, full.used) << trial;
+    if (!std::isfinite(best.gap)) continue;
+    ++near;
+    cheaper += first.used < full.used;
+    // The pair it names is within the radius, with the gap it reports.
+    EXPECT_LT(any.gap, search);
+    EXPECT_GE(any.gap, best.gap);
+    const SphereNode& t = tool.nodes[tool.leaf_nodes[any.tool_leaf]];
+    const SphereNode& o = objects[any.object].tree.nodes[any.object_node];
+    ASSERT_TRUE(o.is_leaf());
+    EXPECT_NEAR((placed.pose().transform(t.center.cast<double>()) - o.center.cast<double>()).norm() - t.radius -
+                    o.radius,
+                any.gap, 1e-9);
+  }
+  EXPECT_GT(near, 10);
+  EXPECT_GT(cheaper, near / 2) << "stopping at the first pair saves work when the tool is near";
+}
+
 // A work budget stops the queries where they are and says so.
 TEST(Collide, WorkBudgetStopsTheQueries) {
   std::mt19937 rng(8);

@@ -114,7 +114,13 @@ class PlacedTool {
     uint32_t count = 0;
   };
   [[nodiscard]] std::span<LeafHits> leaf_hits() const { return leaf_hits_; }
-  /// A fresh stamp for one object's traversal (the table is cleared when the stamps wrap).
+  /// Scratch of collide(): per tool node, how many leaves below it are capped (have left out a pair)
+  /// for the object being traversed; a node whose leaves are all capped is not descended.
+  [[nodiscard]] std::span<LeafHits> node_caps() const { return node_caps_; }
+  /// Per tool node: its parent (the root's is itself) and the number of leaves below it (1 for a leaf).
+  [[nodiscard]] std::span<const uint32_t> parents() const { return parent_; }
+  [[nodiscard]] std::span<const uint32_t> leaves_below() const { return leaves_below_; }
+  /// A fresh stamp for one object's traversal (the tables are cleared when the stamps wrap).
   uint32_t next_hit_stamp() const;
 
  private:
@@ -125,6 +131,9 @@ class PlacedTool {
   std::vector<double> leaf_margin_;  // per leaf
   std::vector<uint32_t> leaf_quota_;  // per leaf, or empty
   mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
+  mutable std::vector<LeafHits> node_caps_;  // collide()'s per-node capped-leaf counters (scratch)
+  std::vector<uint32_t> parent_;             // per node
+  std::vector<uint32_t> leaves_below_;       // per node
   mutable uint32_t hit_stamp_ = 0;
 };
 
@@ -194,6 +203,13 @@ struct ClosestPair {
 };
 ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
                     double search_mm, WorkBudget* budget = nullptr);
+
+/// Whether any tool leaf lies within `search_mm` of a leaf of the masked objects: the first such pair
+/// found (nearest-first, so usually near the closest, but not necessarily it), or gap +infinity when
+/// there is none. Stops at that first pair: the cheap question "is anything near?" when the answer
+/// is usually yes (a tool in contact). `complete` as for closest().
+ClosestPair any_within(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+                       double search_mm, WorkBudget* budget = nullptr);
 
 /// Smallest gap (mm) between one sphere (world centre, radius in mm) and the leaves of `object`
 /// (without the kLeafInterior fillers of a `surface_only` object, as collide()), when below
