@@ -19,8 +19,11 @@
 // step costs, without the preemptions of a shared machine); the share of steps in contact / in the
 // tunnel; where the work goes: sub-steps per step (mean), the share of steps that ran out of
 // sub-steps (lagging), whose pair list overflowed (overflow), the sphere pairs of the last sub-step
-// (pairs, mean; pairs_max), the node pairs the collision queries visited (work, mean; work_max: the
-// unit of StepSettings::work_budget) and the share of steps that ran out of it (over_budget).
+// (pairs, mean; pairs_max), the work units the step spent (work, mean; work_max: node pairs visited,
+// pairs pushed and QP solves, the units of StepSettings::work_budget) and the share of steps that ran
+// out of it (over_budget).
+// BM_StepExtremeParameters (issue #14 item 10) presses a tool of extreme but valid parameters
+// through a block of almost no stiffness: the steps the work budget bounds.
 
 #include <benchmark/benchmark.h>
 
@@ -184,6 +187,37 @@ std::vector<Pose> insertion_with_contact() {
   return sample(t);
 }
 
+// Issue #14 item 10: valid but extreme parameters (the scene of
+// SceneParserFuzz.Issue14ExtremeParametersStayWithinTheStepsWorkBudget): a block of almost no
+// stiffness, the finest sphere chain and the thickest handle allowed, the whole tool pressed 28 mm
+// through the block in 60 ms, held, pulled out, again. The work budget bounds these steps.
+const Model& extreme() {
+  static const Model model = build_model(parse_scene(
+      "objects:\n"
+      "  - name: soft\n"
+      "    shape: {type: cuboid, size: [40, 12, 6]}\n"
+      "    kind: soft\n"
+      "    material: {stiffness: 1e-6}\n"
+      "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
+      "tool:\n"
+      "  max_gap: 0.001\n"
+      "  handle_radius: 20\n"
+      "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n",
+      "extreme.yaml"));
+  return model;
+}
+std::vector<Pose> extreme_presses() {
+  const Model& m = extreme();
+  const auto at = [&](double depth) { return Pose{m.tool_home.p - Vec3(0.0, 0.0, depth), m.tool_home.q}; };
+  Trajectory t;
+  t.add(0.0, at(0.0));
+  t.add(0.06, at(28.0));
+  t.add(0.3, at(28.0));
+  t.add(0.5, at(0.0));
+  t.add(0.7, at(0.0));
+  return sample(t);
+}
+
 // Runs the step along `poses` (forward, then backward, ...) and reports per-step percentiles over
 // the steps `counted` selects (all when null).
 void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses,
@@ -334,6 +368,11 @@ BENCHMARK(BM_StepRealArchScan<kWedge>)
     ->Iterations(20000)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepInsertionWithContact)->Iterations(40000)->Unit(benchmark::kMicrosecond);
+void BM_StepExtremeParameters(benchmark::State& state) {
+  static const std::vector<Pose> poses = extreme_presses();
+  run(state, extreme(), poses, nullptr);
+}
+BENCHMARK(BM_StepExtremeParameters)->Iterations(20000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

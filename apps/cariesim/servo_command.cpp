@@ -46,10 +46,11 @@ extern "C" void on_interrupt(int /*signal*/) { g_interrupted = 1; }
 void print_status(const ServoSnapshot& s) {
   std::fprintf(stderr,
                "servo: t=%7.2f s  %-10s |F|=%6.3f N  |tau|=%7.2f N.mm  depth=%.3f mm  contacts=%d  %s  "
-               "rate=%.0f Hz  overruns=%llu  safety=0x%02x\n",
+               "rate=%.0f Hz  overruns=%llu  work-budget=%llu  safety=0x%02x\n",
                s.t, state_name(s.out.state), s.force.norm(), s.torque.norm(), s.out.depth, s.out.contacts,
                s.device.valid ? "input ok" : "no input", s.rate_hz,
-               static_cast<unsigned long long>(s.overruns), s.safety_flags);
+               static_cast<unsigned long long>(s.overruns), static_cast<unsigned long long>(s.work_budget),
+               s.safety_flags);
 }
 
 // The loop's timing report, the limits in force, the device's counters, the recorder's summary.
@@ -57,11 +58,13 @@ void print_report(Session& session) {
   const ServoLoop& loop = session.loop();
   const TimingReport r = loop.timing();
   std::fprintf(stderr,
-               "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns; real-time: %s\n"
+               "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns, %llu steps cut short by the "
+               "work budget; real-time: %s\n"
                "  step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n"
                "  jitter    (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n",
                static_cast<unsigned long long>(r.cycles), r.rate_hz, 1.0 / loop.dt(),
-               static_cast<unsigned long long>(r.overruns), loop.realtime_status().c_str(), r.step_p50,
+               static_cast<unsigned long long>(r.overruns), static_cast<unsigned long long>(r.work_budget),
+               loop.realtime_status().c_str(), r.step_p50,
                r.step_p99, r.step_p999, r.step_max, r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
   const Params& params = session.params();
   std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm%s\n",

@@ -129,6 +129,7 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
     return;
   }
   ++hits.count;
+  if (q.budget != nullptr) q.budget->charge(kContactWork);  // a spent budget stops the next pop
   Contact c;
   c.gap = gap;
   c.object_node = o;
@@ -493,6 +494,7 @@ void sphere_collide(const Vec3& center, double radius, uint16_t tool_leaf, uint1
     if (n.is_leaf()) {
       const double g = gap(o);
       if ((n.flags & skip) || !(g < margin_mm)) continue;
+      if (budget != nullptr) budget->charge(kContactWork);
       Contact c;
       c.gap = g;
       c.object_node = o;

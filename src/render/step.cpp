@@ -128,11 +128,20 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   Pose g = s.graphic;
   bool reached = false;
   int k = 0;
-  // The work budget ends the sub-steps early (the first always runs, held where it is clear when the
-  // budget runs out inside it).
-  while (!reached && k < std::max(1, m.settings.max_substeps) && (k == 0 || !s.collision.budget.spent())) {
+  // The work budget ends the sub-steps early: the first always runs (held where it is clear when the
+  // budget runs out inside it); a further one starts only while what is left of the budget covers
+  // the costliest sub-step so far, so that the step's time stays bounded (issue #14 item 10).
+  int64_t costliest = 0;
+  WorkBudget& budget = s.collision.budget;
+  while (!reached && k < std::max(1, m.settings.max_substeps)) {
+    if (k > 0 && (budget.spent() || budget.left < costliest)) {
+      trace.flags |= kFlagWorkBudget;
+      break;
+    }
+    const int64_t before = budget.used;
     req.target = config_difference(haptic, g);
     g = solve_substep(m, p, s, g, req, trace, reached);
+    costliest = std::max(costliest, budget.used - before);
     req.trans_bound = std::min(2.0 * req.trans_bound, m.settings.trust_step);
     req.rot_bound = std::min(2.0 * req.rot_bound, m.settings.trust_rotation);
     ++k;

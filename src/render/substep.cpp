@@ -36,6 +36,7 @@ namespace {
 // the displacement (zero when infeasible).
 Vec6 solve_once(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
                 StepTrace& trace) {
+  s.collision.budget.charge(kSolveWork);
   build_regions(m, s.constants, s.pairs, s.regions);
   if (req.friction) attach_anchors(s.regions, g0, s.anchors);
   s.rows.clear(req.G, req.target);

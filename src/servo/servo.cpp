@@ -176,6 +176,7 @@ TimingReport ServoLoop::timing() const {
   r.jitter_max = jitter_hist_.max();
   r.cycles = cycles_.load();
   r.overruns = overruns_.load();
+  r.work_budget = work_budget_.load();
   const double elapsed = elapsed_.load();
   r.rate_hz = elapsed > 0.0 ? static_cast<double>(r.cycles) / elapsed : 0.0;
   return r;
@@ -278,6 +279,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   step_hist_.add(work_us);
   const bool overrun = end > deadline_ns + period_ns_;
   if (overrun) bump(overruns_);
+  if ((out.flags & kFlagWorkBudget) != 0) bump(work_budget_);
   bump(cycles_);
   const uint64_t cycles = cycles_.load(std::memory_order_relaxed);
   if (wake_ns - rate_mark_ns_ >= 1000000000) {
@@ -296,6 +298,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   snapshot_.t = t;
   snapshot_.cycle = cycles;
   snapshot_.overruns = overruns_.load(std::memory_order_relaxed);
+  snapshot_.work_budget = work_budget_.load(std::memory_order_relaxed);
   snapshot_.rate_hz = measured_rate_;
   snapshot_.safety_faults = safety_.faults();
   snapshot_.params_version = params_.version;

@@ -78,6 +78,42 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
   EXPECT_THAT(err_, HasSubstr("cycles at"));
 }
 
+// Issue #11/#14 item 10: steps the work budget cuts short are counted on the status line and in the
+// final report. A tool of extreme but valid parameters pressed through a block of almost no
+// stiffness reaches the budget; the default scene's touch does not.
+TEST_F(ServoCommand, CountsTheStepsTheWorkBudgetCutShort) {
+  const fs::path scene = dir_ / "extreme.yaml";
+  std::ofstream(scene) << "objects:\n"
+                          "  - name: soft\n"
+                          "    shape: {type: cuboid, size: [40, 12, 6]}\n"
+                          "    kind: soft\n"
+                          "    material: {stiffness: 1e-6}\n"
+                          "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
+                          "tool:\n"
+                          "  max_gap: 0.001\n"
+                          "  handle_radius: 20\n"
+                          "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n";
+  const fs::path press = dir_ / "press.csv";
+  std::ofstream(press) << "t,px,py,pz,qw,qx,qy,qz\n"
+                          "0,-15,0,8,0.766044443,0,-0.642787610,0\n"
+                          "0.06,-15,0,-20,0.766044443,0,-0.642787610,0\n"
+                          "1.2,-15,0,-20,0.766044443,0,-0.642787610,0\n";
+  ASSERT_EQ(run("servo --scene '" + scene.string() + "' --device 'scripted:" + press.string() +
+                "' --rate 1000 --no-realtime"),
+            0)
+      << err_;
+  // The status line (once a second) and the report both count them.
+  const auto counted = [&](const std::string& before) {
+    const std::size_t at = err_.find(before);
+    return at == std::string::npos ? -1L : std::atol(err_.c_str() + at + before.size());
+  };
+  EXPECT_GT(counted("work-budget="), 0) << err_;
+  const std::size_t report = err_.find(" steps cut short by the work budget");
+  ASSERT_NE(report, std::string::npos) << err_;
+  const std::size_t comma = err_.rfind(", ", report);
+  EXPECT_GT(std::atol(err_.c_str() + comma + 2), 0) << err_;
+}
+
 TEST_F(ServoCommand, UdpBridgeRunsForADurationAndCountsPackets) {
   ASSERT_EQ(run("servo --scene friction-block --device udp:0 --duration 0.3 --quiet --no-realtime"), 0)
       << err_;

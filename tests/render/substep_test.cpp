@@ -274,5 +274,37 @@ TEST(Substep, SlidingBudgetLagsBehindAFarHand) {
   EXPECT_LT(near.substeps, m.settings.max_substeps);
 }
 
+// The work budget and the sub-steps (issue #14 item 10): a further sub-step starts only while what is
+// left of the budget covers the costliest sub-step so far, so a step never runs a sub-step it cannot
+// finish. With a budget of about half the six sub-steps' work the step stops early, before the
+// budget is spent, says so, and stays out of the slab; with the default it runs all six unflagged.
+TEST(Substep, AFurtherSubStepStartsOnlyWhileTheBudgetCoversIt) {
+  Model m = rigid_slab();
+  const Vec3 start(0, 0, kTip + 0.3);
+  const HapticInput far{probe_at(Vec3(2.0, 0, -5.0)), 0.001};
+  State roomy(m, probe_at(start));
+  const StepOutput all = step(m, roomy, far);
+  ASSERT_EQ(all.substeps, m.settings.max_substeps);
+  EXPECT_FALSE(all.flags & kFlagWorkBudget);
+  m.settings.work_budget = all.work / 2;
+  State tight(m, probe_at(start));
+  const StepOutput some = step(m, tight, far);
+  EXPECT_TRUE(some.flags & kFlagWorkBudget);
+  EXPECT_TRUE(some.flags & kFlagLagging);
+  EXPECT_GE(some.substeps, 1);
+  EXPECT_LT(some.substeps, m.settings.max_substeps);
+  EXPECT_LE(some.work, m.settings.work_budget);
+  // Stopped by the gate, not by a query running out: budget left over, and the sub-steps that ran
+  // are those of an unbounded step, so the tool is where one allowed as many sub-steps ends (clear).
+  EXPECT_LT(some.work, m.settings.work_budget);
+  Model fewer = rigid_slab();
+  fewer.settings.max_substeps = some.substeps;
+  State same_start(fewer, probe_at(start));
+  const StepOutput same = step(fewer, same_start, far);
+  EXPECT_NEAR((same.graphic.p - some.graphic.p).norm(), 0.0, 1e-12);
+  EXPECT_GE(test::rigid_clearance(m, some.graphic), -m.settings.rigid_tolerance);
+  EXPECT_GT((some.graphic.p - start).norm(), 0.01);  // beyond the first sub-step's bound
+}
+
 }  // namespace
 }  // namespace cariesim

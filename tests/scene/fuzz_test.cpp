@@ -163,7 +163,7 @@ TEST(SceneParserFuzz, Issue14ExtremeParametersStayWithinTheStepsWorkBudget) {
     EXPECT_LE(out.force.norm(), m.defaults.limits.max_force + 1e-9) << i;
     EXPECT_LE(out.torque.norm(), m.defaults.limits.max_torque + 1e-9) << i;
   }
-  EXPECT_TRUE(ran_out) << "most node pairs in a step: " << most;
+  EXPECT_TRUE(ran_out) << "most work units in a step: " << most;
 }
 
 // Random edits of a trajectory file parse or throw cariesim::Error located in it; and the issue #14

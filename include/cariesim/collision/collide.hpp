@@ -146,24 +146,33 @@ inline constexpr uint32_t kStepPairsPerToolLeaf = 16;
 /// leaves, and their nearest few already give its rows (at most three per leaf and object).
 inline constexpr uint32_t kStepPairsPerFarToolLeaf = 16;
 
-/// A bound on the work of a sequence of queries (the haptic step's, DESIGN.md §4): node pairs the
-/// traversals may still visit. A query that runs out stops where it is and says so (collide(): the
-/// contact set overflows; closest(): ClosestPair::complete is false; sphere_closest(): -infinity).
+/// A bound on the work of a sequence of queries (the haptic step's, DESIGN.md §4), in work units: one
+/// per node pair a traversal visits, kContactWork per pair pushed to a contact set (the pair test, the
+/// set's heap when full, and the listing, measuring and row building that follow in the step), and
+/// what the caller charges for its own work (the step: kSolveWork per QP solve). A query that runs out
+/// stops where it is and says so (collide(): the contact set overflows; closest():
+/// ClosestPair::complete is false; sphere_closest(): -infinity).
 struct WorkBudget {
-  int64_t left = std::numeric_limits<int64_t>::max();  ///< node pairs
-  int64_t used = 0;                                     ///< node pairs visited so far
-  /// Takes one node pair; false (and spent from then on) when none is left.
-  bool take() {
-    if (left <= 0) {
+  int64_t left = std::numeric_limits<int64_t>::max();  ///< work units
+  int64_t used = 0;                                     ///< work units spent so far
+  /// Takes one unit (a node pair); false (and spent from then on) when none is left.
+  bool take() { return charge(1); }
+  /// Takes n units; when fewer are left, takes what is left, is spent from then on and returns false.
+  bool charge(int64_t n) {
+    if (left < n) {
+      used += std::max<int64_t>(left, 0);
       left = -1;
       return false;
     }
-    --left;
-    ++used;
+    left -= n;
+    used += n;
     return true;
   }
   [[nodiscard]] bool spent() const { return left < 0; }
 };
+/// Work units of one pair pushed to a contact set (WorkBudget; calibrated on step_bench's trajectories
+/// and the extreme scene of issue #14 item 10: about 130 ns against 12 ns a node pair).
+inline constexpr int64_t kContactWork = 10;
 
 /// Which objects take part in a query (bit i = object i); at most 64 objects.
 using ObjectMask = uint64_t;

@@ -51,10 +51,12 @@ struct StepSettings {
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
   double max_give_speed = 40.0;
-  /// Node pairs the collision queries of one step may visit (docs/step.md "Work budget"): bounds the
-  /// step's time whatever the trees, the tool or the materials (about 25 ns each on one core of the
-  /// reference machine, so 30000 keep collision under 1 ms). Beyond it no further sub-step starts, a
-  /// query cut short counts as an overlap (the tool holds where it was clear), and kFlagWorkBudget is set.
+  /// Work units one step may spend (docs/step.md "Work budget"; WorkBudget: a node pair visited is
+  /// one, a pair pushed to a contact set kContactWork, a QP solve kSolveWork): bounds the step's time
+  /// whatever the trees, the tool or the materials (12-40 ns a unit on one core of the reference
+  /// machine). A further sub-step starts only while what is left covers the costliest sub-step so
+  /// far; a query cut short counts as an overlap (the tool holds where it was clear); kFlagWorkBudget
+  /// is set either way.
   int64_t work_budget = 30000;
 };
 

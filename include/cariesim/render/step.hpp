@@ -80,7 +80,7 @@ struct StepOutput {
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;            ///< µs, wall time of this step
   int substeps = 0;                ///< sub-steps taken (trust region, DESIGN.md §4 step 3)
-  int64_t work = 0;                ///< node pairs the step's collision queries visited (its work budget's unit)
+  int64_t work = 0;                ///< work units the step spent (StepSettings::work_budget)
   int slips = 0;                   ///< friction anchors that slipped this step (saw-tooth events)
   std::array<ContactReport, kMaxReportedContacts> contact_reports{};
   int contact_report_count = 0;

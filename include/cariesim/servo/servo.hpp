@@ -59,6 +59,7 @@ struct TimingReport {
   double jitter_p50 = 0, jitter_p99 = 0, jitter_p999 = 0, jitter_max = 0;  ///< µs, wake-up lateness
   uint64_t cycles = 0;
   uint64_t overruns = 0;
+  uint64_t work_budget = 0;  ///< steps the work budget cut short (kFlagWorkBudget)
   double rate_hz = 0.0;  ///< measured
 };
 
@@ -72,6 +73,7 @@ struct ServoSnapshot {
   double t = 0.0;  ///< s since start
   uint64_t cycle = 0;
   uint64_t overruns = 0;
+  uint64_t work_budget = 0;    ///< steps so far the work budget cut short (kFlagWorkBudget)
   double rate_hz = 0.0;        ///< measured over the last second
   uint64_t safety_faults = 0;  ///< cycles whose force ForceSafety zeroed, so far
   /// Version of the running Params: 0 as the loop started, +1 whenever a change applied or the
@@ -181,7 +183,7 @@ class ServoLoop {
   std::atomic<uint64_t> refused_limits_{0};
   std::string realtime_status_;
   TimingHistogram step_hist_, jitter_hist_;
-  std::atomic<uint64_t> cycles_{0}, overruns_{0};
+  std::atomic<uint64_t> cycles_{0}, overruns_{0}, work_budget_{0};
   std::atomic<double> elapsed_{0.0};  // s, wall time run by the loop over every run
   double time_base_ = 0.0;            // s, servo time at which the current run started
   // Servo thread only.
