@@ -187,23 +187,12 @@ std::vector<Pose> insertion_with_contact() {
   return sample(t);
 }
 
-// Issue #14 item 10: valid but extreme parameters (the scene of
-// SceneParserFuzz.Issue14ExtremeParametersStayWithinTheStepsWorkBudget): a block of almost no
+// Issue #14 item 10: valid but extreme parameters (scenes/examples/extreme-parameters.yaml): a block of almost no
 // stiffness, the finest sphere chain and the thickest handle allowed, the whole tool pressed 28 mm
 // through the block in 60 ms, held, pulled out, again. The work budget bounds these steps.
 const Model& extreme() {
-  static const Model model = build_model(parse_scene(
-      "objects:\n"
-      "  - name: soft\n"
-      "    shape: {type: cuboid, size: [40, 12, 6]}\n"
-      "    kind: soft\n"
-      "    material: {stiffness: 1e-6}\n"
-      "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
-      "tool:\n"
-      "  max_gap: 0.001\n"
-      "  handle_radius: 20\n"
-      "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n",
-      "extreme.yaml"));
+  static const Model model =
+      build_model(load_scene(std::string(CARIESIM_SOURCE_DIR) + "/scenes/examples/extreme-parameters.yaml"));
   return model;
 }
 std::vector<Pose> extreme_presses() {

@@ -82,17 +82,7 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
 // final report. A tool of extreme but valid parameters pressed through a block of almost no
 // stiffness reaches the budget; the default scene's touch does not.
 TEST_F(ServoCommand, CountsTheStepsTheWorkBudgetCutShort) {
-  const fs::path scene = dir_ / "extreme.yaml";
-  std::ofstream(scene) << "objects:\n"
-                          "  - name: soft\n"
-                          "    shape: {type: cuboid, size: [40, 12, 6]}\n"
-                          "    kind: soft\n"
-                          "    material: {stiffness: 1e-6}\n"
-                          "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
-                          "tool:\n"
-                          "  max_gap: 0.001\n"
-                          "  handle_radius: 20\n"
-                          "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n";
+  const fs::path scene = fs::path(CARIESIM_SOURCE_DIR) / "scenes/examples/extreme-parameters.yaml";
   const fs::path press = dir_ / "press.csv";
   std::ofstream(press) << "t,px,py,pz,qw,qx,qy,qz\n"
                           "0,-15,0,8,0.766044443,0,-0.642787610,0\n"

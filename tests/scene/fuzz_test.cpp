@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <exception>
+#include <filesystem>
 #include <random>
 #include <string>
 #include <vector>
@@ -136,18 +137,9 @@ TEST(SceneParserFuzz, Issue14InputsAreRefusedWhereTheyAre) {
 // made steps of several ms. The step's collision work is bounded (StepSettings::work_budget, in node
 // pairs, docs/step.md): every step stays within it, says when it ran out, and stays finite and bounded.
 TEST(SceneParserFuzz, Issue14ExtremeParametersStayWithinTheStepsWorkBudget) {
-  const std::string yaml =
-      "objects:\n"
-      "  - name: soft\n"
-      "    shape: {type: cuboid, size: [40, 12, 6]}\n"
-      "    kind: soft\n"
-      "    material: {stiffness: 1e-6}\n"
-      "    tree: {mode: tight, tolerance: 0.02, max_radius: 1.0, min_radius: 0.02}\n"
-      "tool:\n"
-      "  max_gap: 0.001\n"
-      "  handle_radius: 20\n"
-      "  home: {position: [-15, 0, 8], rotation: {axis: [0, 1, 0], angle: -80}}\n";
-  const Model m = build_model(parse_scene(yaml, "extreme.yaml"));
+  const std::filesystem::path scene =
+      std::filesystem::path(CARIESIM_SOURCE_DIR) / "scenes/examples/extreme-parameters.yaml";
+  const Model m = build_model(load_scene(scene.string()));
   State s(m, m.tool_home);
   bool ran_out = false;
   int64_t most = 0;
