@@ -169,8 +169,8 @@ bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c,
 
 namespace {
 
-// Adds a pair found overlapping at a solution to `pairs` (forced, measured at pairs.at) unless it is
-// there already or the set is full.
+// Adds a pair found overlapping at a solution to `pairs` (forced, measured at pairs.at) unless the set
+// is full; a pair already listed without a row is marked forced, so that it gets one.
 void add_forced(const Model& m, const ModelConstants& k, const Contact& con, PairSet& pairs, Recheck& out) {
   for (int j = 0; j < pairs.count; ++j) {
     PairRef& p = pairs.refs[j];
