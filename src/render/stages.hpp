@@ -155,7 +155,7 @@ bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c,
 /// What the re-check at a solution found.
 struct Recheck {
   double worst = 0.0;  ///< mm, smallest gap to the rigid objects in the mask (0 when nothing is near)
-  int added = 0;       ///< forced pairs added to the PairSet
+  int added = 0;       ///< pairs added to the PairSet or given a row (marked forced)
 };
 /// Re-check at the solution g1: when the tool overlaps a rigid object in `mask` by more than the
 /// tolerance, every such pair not yet in `pairs` joins it (forced, measured at pairs.at).
