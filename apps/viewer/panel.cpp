@@ -198,8 +198,9 @@ void ViewerApp::panel_status() {
   // The servo loop.
   ImGui::Separator();
   ImGui::Text("servo %.0f Hz (set %.0f)   t %.1f s", snapshot_.rate_hz, s.run->rate_hz(), snapshot_.t);
-  ImGui::Text("cycles %llu   overruns %llu", static_cast<unsigned long long>(snapshot_.cycle),
-              static_cast<unsigned long long>(snapshot_.overruns));
+  ImGui::Text("cycles %llu   overruns %llu   work budget %llu", static_cast<unsigned long long>(snapshot_.cycle),
+              static_cast<unsigned long long>(snapshot_.overruns),
+              static_cast<unsigned long long>(snapshot_.work_budget));
   ImGui::Text("step  p50 %.1f  p99 %.1f  max %.1f us", timing_.step_p50, timing_.step_p99, timing_.step_max);
   ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99,
               timing_.jitter_max);
@@ -464,6 +465,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.key("timing").begin_object();
   json.field("cycles", static_cast<long long>(timing_.cycles));
   json.field("overruns", static_cast<long long>(timing_.overruns));
+  json.field("work_budget", static_cast<long long>(timing_.work_budget));
   json.field("rate_hz", timing_.rate_hz);
   json.field("step_p50_us", timing_.step_p50).field("step_p99_us", timing_.step_p99);
   json.field("step_p999_us", timing_.step_p999).field("step_max_us", timing_.step_max);

@@ -491,9 +491,11 @@ void ViewerApp::print_summary() const {
         state_name(out.state), out.force.norm(), snapshot_.force.norm(), out.torque.norm(), out.depth,
         out.contacts, snapshot_.t);
   }
-  std::printf("servo: %llu cycles at %.1f Hz, %llu overruns; real-time: %s\n",
+  std::printf("servo: %llu cycles at %.1f Hz, %llu overruns, %llu steps cut short by the work budget; "
+              "real-time: %s\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),
+              static_cast<unsigned long long>(timing_.work_budget),
               session_->run->loop().realtime_status().c_str());
   std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50,
               timing_.step_p99, timing_.step_p999, timing_.step_max);

@@ -56,6 +56,8 @@ for k in ("scene", "device", "state", "camera"):
     print("T", k, d[k])
 for k in ("force_norm", "rendered_force_norm", "depth", "t", "width", "height"):
     print("N", k, d[k])
+for k in ("cycles", "overruns", "work_budget"):
+    print("N", k, d["timing"][k])
 print("N background", *d["background"])
 print("N tool_color", *d["tool_color"])
 p = d["panel"]; print("N panel", p["x"], p["y"], p["w"], p["h"]); print("N scroll_max", p.get("scroll_max", 0))
@@ -185,6 +187,9 @@ TEST_P(ViewerXvfb, ScriptedTouchShowsToothToolAndPanel) {
   EXPECT_EQ(status.text.at("state"), "sliding");
   EXPECT_GT(status.number.at("force_norm").at(0), 0.05);
   EXPECT_GE(status.number.at("t").at(0), kExitAfter);
+  // The servo loop's counters: it ran, and an ordinary touch never reached the step's work budget.
+  EXPECT_GT(status.number.at("cycles").at(0), 1000.0);
+  EXPECT_EQ(status.number.at("work_budget").at(0), 0.0);
 
   // The image is the window's framebuffer.
   const Image img = load_png(png);
