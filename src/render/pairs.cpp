@@ -116,6 +116,14 @@ double listed_worst(const Model& m, const ModelConstants& k, CollisionScratch& c
 
 }  // namespace
 
+bool listed_within(const Model& m, const ModelConstants& k, const CollisionScratch& c, const Pose& g,
+                   double reach_mm) {
+  const Mat3 rot = g.q.toRotationMatrix();
+  for (const Contact& con : c.contacts.view())
+    if (sphere_gap(m, k, g, rot, con) < reach_mm) return true;
+  return false;
+}
+
 bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g0,
                    ObjectMask mask, PairSet& out) {
   // Every pair within its tool leaf's margin, a bounded number per (tool leaf, object).

@@ -166,6 +166,11 @@ struct Recheck {
 /// fillers, CollisionObject::surface_only), so the two agree.
 Recheck recheck_rigid(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g1,
                       ObjectMask mask, PairSet& pairs);
+/// True when a pair of the last collection in `c.contacts` (any leaf pair, from any configuration) lies
+/// within `reach_mm` of each other with the tool at g: then the tool is not in free space, and no
+/// tree needs searching to say so.
+bool listed_within(const Model& m, const ModelConstants& k, const CollisionScratch& c, const Pose& g,
+                   double reach_mm);
 /// Smallest gap (mm) between the tool at g and the rigid objects in `mask`; 0 when nothing overlaps.
 /// As recheck_rigid: g within the sub-step's bounds; complete pair lists are searched instead of trees.
 double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g,

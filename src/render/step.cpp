@@ -101,12 +101,17 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   const double trans = remaining.head<3>().norm();
   const double rot = remaining.tail<3>().norm();
 
-  // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand.
-  s.collision.placed.place(s.graphic, 0.0);
+  // Free space: nothing within reach of the whole motion, so the graphic tool follows the hand. In
+  // contact a pair of the last collection usually shows it is not, without searching the trees.
   const double reach = trans + rot * s.constants.max_reach + m.settings.contact_margin;
-  const ClosestPair near =
-      any_within(s.collision.placed, m.objects, s.constants.all_mask, reach, &s.collision.budget);
-  if (near.complete && !std::isfinite(near.gap)) {
+  bool free = false;
+  if (!listed_within(m, s.constants, s.collision, s.graphic, reach)) {
+    s.collision.placed.place(s.graphic, 0.0);
+    const ClosestPair near =
+        any_within(s.collision.placed, m.objects, s.constants.all_mask, reach, &s.collision.budget);
+    free = near.complete && !std::isfinite(near.gap);
+  }
+  if (free) {
     s.graphic = haptic;
     s.regions.count = 0;
     release_anchors(s.anchors);

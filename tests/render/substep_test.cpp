@@ -226,6 +226,24 @@ TEST(Substep, ReCheckGivesAListedPairWithoutARowItsRow) {
   EXPECT_EQ(check.added, forced);
 }
 
+// The free-space check's shortcut: a pair of the last collection within reach at the tool's pose
+// shows the tool is not in free space (the sliding state then skips the tree search); a pose far
+// from every listed pair does not.
+TEST(Substep, ListedPairsShowTheToolIsNear) {
+  const Model m = rigid_slab();
+  StateImpl s(m);
+  const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
+  set_leaf_margins(m, s.constants, 0.05, 0.01, s.collision);
+  collect_pairs(m, s.constants, s.collision, g0, s.constants.all_mask, s.pairs);
+  ASSERT_GT(s.collision.contacts.size(), 0u);
+  EXPECT_TRUE(listed_within(m, s.constants, s.collision, g0, 0.02));
+  const Pose above = probe_at(Vec3(0.0, 0.0, kTip + 5.0));
+  EXPECT_FALSE(listed_within(m, s.constants, s.collision, above, 0.1));
+  EXPECT_TRUE(listed_within(m, s.constants, s.collision, above, 5.1));
+  s.collision.contacts.clear();
+  EXPECT_FALSE(listed_within(m, s.constants, s.collision, g0, 1.0)) << "nothing listed";
+}
+
 TEST(Substep, BacktracksWhatTheReCheckCannotFix) {
   test::SlabSpec spec;
   spec.x0 = spec.y0 = -3.0;
