@@ -38,12 +38,6 @@ uint32_t node_at(const Model& m, int object, const Vec3& center) {
   return 0;
 }
 
-// Margins for a sub-step bounded by `trans` mm and no rotation, then the pairs at g.
-void collect(const Model& m, StateImpl& s, const Pose& g, double trans) {
-  set_leaf_margins(m, s.constants, trans, 0.0, s.collision);
-  collect_pairs(m, s.constants, s.collision, g, kAllObjects, s.pairs);
-}
-
 // A rigid leaf is measured sphere against sphere: the gap, the normal from the object sphere's
 // centre, the lever from the tool-frame origin.
 TEST(MeasurePair, RigidLeafIsSphereAgainstSphere) {
@@ -108,7 +102,7 @@ TEST(MeasurePair, CariesWallLeafIsMarkedAndLeftOut) {
   const PairRef in_healthy{node_at(m, 1, Vec3(0, 0, -kSlabR)), 0, 1, false};
   EXPECT_TRUE(measure_pair(m, s.constants, g, in_lesion).wall);
   EXPECT_FALSE(measure_pair(m, s.constants, g, in_healthy).wall);
-  collect(m, s, g, 0.01);
+  test::collect(m, s, g, 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   ASSERT_GT(s.pairs.count, 0);
   ASSERT_EQ(s.regions.count, 1);
@@ -124,7 +118,7 @@ TEST(CollectPairs, MeasuresEachPairOnceAtTheRowsConfiguration) {
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
   const Pose g = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
-  collect(m, s, g, 0.05);
+  test::collect(m, s, g, 0.05);
   ASSERT_GT(s.pairs.count, 0);
   EXPECT_FALSE(s.pairs.overflow);
   EXPECT_EQ(s.pairs.at.p, g.p);
@@ -174,7 +168,7 @@ TEST(BuildRegions, OnePerObjectAndToolPointFoundedByTheDeepest) {
   StateImpl& s = state.impl();
   // The tip 0.1 mm into the floor; the shank (1 mm radius from z = 3.5) 0.2 mm into the wall.
   const Pose g = probe_at(Vec3(1.7, 0.0, kTip - 0.1));
-  collect(m, s, g, 0.01);
+  test::collect(m, s, g, 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   ASSERT_GE(s.regions.count, 2);
   EXPECT_EQ(s.regions.pairs, s.pairs.count);
@@ -220,7 +214,7 @@ TEST(ContactRows, RigidRowsAreTheLinearisedGap) {
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
   const Pose g{Vec3(0.05, 0.0, kTip + 0.005), Quat(Eigen::AngleAxisd(0.2, Vec3::UnitX()))};
-  collect(m, s, g, 0.05);
+  test::collect(m, s, g, 0.05);
   build_regions(m, s.constants, s.pairs, s.regions);
   s.rows.clear(Mat6::Identity(), Vec6::Zero());
   const int added = build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
@@ -254,7 +248,7 @@ TEST(ContactRows, RigidRowsAreTheLinearisedGap) {
   }
   // Inside the tunnel (hold_only) a rigid row never asks to move out of an overlap.
   const Pose sunk = probe_at(Vec3(0.0, 0.0, kTip - 0.02));
-  collect(m, s, sunk, 0.05);
+  test::collect(m, s, sunk, 0.05);
   build_regions(m, s.constants, s.pairs, s.regions);
   s.rows.clear(Mat6::Identity(), Vec6::Zero());
   build_contact_rows(m, m.defaults, s.pairs, s.regions, true, s.contact_rows, s.rows);
@@ -269,7 +263,7 @@ TEST(ContactRows, CompliantRegionGivesOneRowPerDirection) {
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
-  collect(m, s, probe_at(Vec3(0.03, 0.02, kTip - 0.3)), 0.01);
+  test::collect(m, s, probe_at(Vec3(0.03, 0.02, kTip - 0.3)), 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   ASSERT_GT(s.pairs.count, 20) << "many spheres overlap";
   ASSERT_EQ(s.regions.count, 1);
@@ -290,7 +284,7 @@ TEST(Solve, SphereOnACompliantPlane) {
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
-  collect(m, s, probe_at(Vec3(0, 0, kTip - depth)), 0.01);
+  test::collect(m, s, probe_at(Vec3(0, 0, kTip - depth)), 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   Mat6 G = Mat6::Identity() * k_t;
   G.diagonal().tail<3>().setConstant(150.0);

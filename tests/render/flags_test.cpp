@@ -24,6 +24,13 @@ std::vector<LeafSphere> floor_leaves(double x0, double x1, double y0, double y1,
   return test::slab(spec, [](const Vec3&) { return 0; });
 }
 
+// A rough rigid slab of small spheres (0.3 mm) long enough for the whole probe lying on it: each shank
+// sphere meets several distinct normals.
+Model rough_floor() {
+  return test::model({test::object("rough", floor_leaves(-2, 42, -2, 2, 0.3), ObjectKind::Rigid)},
+                     {test::enamel()});
+}
+
 // Slab leaves turned into a wall: the plane x = at, facing -x (sign +1) or +x (sign -1), its
 // tangent points spanning z in [z0, z0 + (x1 - x0)].
 std::vector<LeafSphere> wall_leaves(double at, double sign, double z0, double x0, double x1,
@@ -83,8 +90,7 @@ TEST(StepFlags, ContactOverflow) {
 // Every step stays within the budget, says so, and keeps the tool out of
 // the slab; with the default budget the same press is not flagged.
 TEST(StepFlags, WorkBudget) {
-  Model m = test::model({test::object("rough", floor_leaves(-2, 42, -2, 2, 0.3), ObjectKind::Rigid)},
-                        {test::enamel()});
+  Model m = rough_floor();
   m.settings.work_budget = 400;
   const Params p = flat(m);
   State s(m, lying(0.0, 0.05));
@@ -99,8 +105,7 @@ TEST(StepFlags, WorkBudget) {
   }
   EXPECT_TRUE(flagged);
 
-  const Model roomy = test::model({test::object("rough", floor_leaves(-2, 42, -2, 2, 0.3), ObjectKind::Rigid)},
-                                  {test::enamel()});
+  const Model roomy = rough_floor();
   State r(roomy, lying(0.0, 0.05));
   int64_t most = 0;
   for (int i = 0; i < 40; ++i) {
@@ -114,8 +119,7 @@ TEST(StepFlags, WorkBudget) {
 // The whole probe lying on a rough rigid slab (small spheres: each shank sphere meets several distinct
 // normals, a row each): more rows than the QP holds.
 TEST(StepFlags, QpRowsFull) {
-  const Model m = test::model({test::object("rough", floor_leaves(-2, 42, -2, 2, 0.3), ObjectKind::Rigid)},
-                              {test::enamel()});
+  const Model m = rough_floor();
   const Params p = flat(m);
   State s(m, lying(0.0, 0.05));
   bool flagged = false;

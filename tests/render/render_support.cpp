@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "cariesim/spheretree/build.hpp"
+#include "render/state_impl.hpp"
 
 namespace cariesim::test {
 
@@ -87,6 +88,11 @@ double rigid_clearance(const Model& m, const Pose& tool) {
     if (m.objects[i].kind == ObjectKind::Rigid) rigid |= ObjectMask{1} << i;
   const ClosestPair c = closest(placed, m.objects, rigid, 1.0);
   return std::isfinite(c.gap) ? c.gap : 1.0;
+}
+
+void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot) {
+  detail::set_leaf_margins(m, s.constants, trans, rot, s.collision);
+  detail::collect_pairs(m, s.constants, s.collision, g, s.constants.all_mask, s.pairs);
 }
 
 }  // namespace cariesim::test

@@ -6,6 +6,10 @@
 #include "cariesim/render/model.hpp"
 #include "cariesim/spheretree/hierarchy.hpp"
 
+namespace cariesim {
+struct StateImpl;
+}
+
 namespace cariesim::test {
 
 /// A straight probe along +z: tip sphere (0.05 mm) at the origin, a tapered 3 mm tip segment to
@@ -37,6 +41,10 @@ Material soft(double k, double mu_s = 0.0, double mu_d = 0.0, Tissue tissue = Ti
 
 /// The probe pointing straight down (tool +z = world +z), tip centre at p.
 Pose probe_at(const Vec3& p);
+
+/// The collision stage of one sub-step bounded by `trans` mm and `rot` rad, run on its own: the leaf
+/// margins, then the pairs at g (every object: the step's mask) into s.pairs.
+void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot = 0.0);
 
 /// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects, capped at 1 mm.
 double rigid_clearance(const Model& m, const Pose& tool);

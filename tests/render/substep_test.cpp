@@ -168,8 +168,7 @@ TEST(Substep, ReCheckFromTheCollectedPairsMatchesTheTrees) {
     const double trans = 0.1, rot = 0.02;  // mm, rad: the trust region
     const Quat tilt(Eigen::AngleAxisd(0.6 * u(rng), Vec3(u(rng), u(rng), 0.0).normalized()));
     const Pose g0{Vec3(0.5 * u(rng), 0.5 * u(rng), kTip + 0.05 * u(rng)), tilt};
-    set_leaf_margins(m, s.constants, trans, rot, s.collision);
-    collect_pairs(m, s.constants, s.collision, g0, s.constants.all_mask, s.pairs);
+    test::collect(m, s, g0, trans, rot);
     ASSERT_EQ(s.collision.complete, s.constants.all_mask) << trial;
     capped += !s.collision.contacts.capped().empty();
     for (int k = 0; k < 10; ++k) {
@@ -197,8 +196,7 @@ TEST(Substep, ReCheckGivesAListedPairWithoutARowItsRow) {
   const Model m = rigid_slab();
   StateImpl s(m);
   const Pose g0 = probe_at(Vec3(0.02, 0.01, kTip + 0.002));
-  set_leaf_margins(m, s.constants, 0.1, 0.01, s.collision);
-  collect_pairs(m, s.constants, s.collision, g0, s.constants.all_mask, s.pairs);
+  test::collect(m, s, g0, 0.1, 0.01);
   ASSERT_GT(s.pairs.count, 3);
   for (int i = 0; i < s.pairs.count; ++i) ASSERT_FALSE(s.pairs.refs[i].forced);
   const int listed = s.pairs.count;
@@ -233,8 +231,7 @@ TEST(Substep, ListedPairsShowTheToolIsNear) {
   const Model m = rigid_slab();
   StateImpl s(m);
   const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
-  set_leaf_margins(m, s.constants, 0.05, 0.01, s.collision);
-  collect_pairs(m, s.constants, s.collision, g0, s.constants.all_mask, s.pairs);
+  test::collect(m, s, g0, 0.05, 0.01);
   ASSERT_GT(s.collision.contacts.size(), 0u);
   EXPECT_TRUE(listed_within(m, s.constants, s.collision, g0, 0.02));
   const Pose above = probe_at(Vec3(0.0, 0.0, kTip + 5.0));
