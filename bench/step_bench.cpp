@@ -21,7 +21,11 @@
 // sub-steps (lagging), whose pair list overflowed (overflow), the sphere pairs of the last sub-step
 // (pairs, mean; pairs_max), the work units the step spent (work, mean; work_max: node pairs visited,
 // pairs pushed and QP solves, the units of StepSettings::work_budget) and the share of steps that ran
-// out of it (over_budget).
+// out of it (over_budget). How smooth the graphic tool runs: `reversals`, the share of steps whose
+// motion (at least kChatterMotion) turns back by more than 120 degrees from the last step's (also at
+// least kChatterMotion): a tool that alternates between two poses at half the servo rate, which the
+// hand feels as a buzz; `force_jump_p99`, N, the 99th percentile of the change of the rendered force
+// from one step to the next.
 // BM_StepExtremeParameters (issue #14 item 10) presses a tool of extreme but valid parameters
 // through a block of almost no stiffness: the steps the work budget bounds.
 
@@ -207,6 +211,9 @@ std::vector<Pose> extreme_presses() {
   return sample(t);
 }
 
+// mm: the least motion per step that counts toward a reversal (a hand at 20 mm/s moves 0.02 mm).
+constexpr double kChatterMotion = 0.01;
+
 // Runs the step along `poses` (forward, then backward, ...) and reports per-step percentiles over
 // the steps `counted` selects (all when null).
 void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses,
@@ -223,7 +230,10 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   std::size_t i = 0;
   int dir = 1;
   double contact = 0.0, tunnel = 0.0, steps = 0.0, substeps = 0.0, lagging = 0.0, overflow = 0.0;
-  double pairs = 0.0, pairs_max = 0.0, work = 0.0, work_max = 0.0, budget = 0.0;
+  double pairs = 0.0, pairs_max = 0.0, work = 0.0, work_max = 0.0, budget = 0.0, reversals = 0.0;
+  std::vector<double> force_jump;  // N
+  force_jump.reserve(1 << 20);
+  Vec3 last_p = s.graphic().p, last_motion = Vec3::Zero(), last_force = Vec3::Zero();
   for (auto _ : state) {
     const double c0 = thread_us();
     const auto t0 = std::chrono::steady_clock::now();
@@ -245,6 +255,13 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
     work_max = std::max(work_max, static_cast<double>(out.work));
     budget += (out.flags & kFlagWorkBudget) != 0;
     tunnel += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
+    const Vec3 motion = s.graphic().p - last_p;
+    reversals += motion.norm() >= kChatterMotion && last_motion.norm() >= kChatterMotion &&
+                 motion.dot(last_motion) < -0.5 * motion.norm() * last_motion.norm();
+    if (steps > 0.0) force_jump.push_back((out.force - last_force).norm());
+    last_p = s.graphic().p;
+    last_motion = motion;
+    last_force = out.force;
     ++steps;
     if ((dir > 0 && i + 1 == poses.size()) || (dir < 0 && i == 0)) dir = -dir;
     i = static_cast<std::size_t>(static_cast<long>(i) + dir);
@@ -274,6 +291,11 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
   state.counters["work"] = work / steps;
   state.counters["work_max"] = work_max;
   state.counters["over_budget"] = budget / steps;
+  state.counters["reversals"] = reversals / steps;
+  if (!force_jump.empty()) {
+    std::sort(force_jump.begin(), force_jump.end());
+    state.counters["force_jump_p99"] = pct(force_jump, 0.99);
+  }
   state.counters["in_contact"] = contact / steps;
   state.counters["in_tunnel"] = tunnel / steps;
   state.counters["counted"] = static_cast<double>(us.size());
