@@ -130,7 +130,7 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   // thin collision margin); each further sub-step doubles it up to the trust region.
   req.trans_bound = std::clamp(2.0 * s.last_motion + 0.005, 0.01, m.settings.trust_step);
   req.rot_bound = std::clamp(2.0 * s.last_rotation + 1e-4, 1e-3, m.settings.trust_rotation);
-  Pose g = s.graphic;
+  Pose g = s.graphic, g0 = s.graphic;  // g0: where the last sub-step started (its solve's configuration)
   bool reached = false;
   int k = 0;
   // The work budget ends the sub-steps early: the first always runs (held where it is clear when the
@@ -145,13 +145,26 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
     }
     const int64_t before = budget.used;
     req.target = config_difference(haptic, g);
+    g0 = g;
     g = solve_substep(m, p, s, g, req, trace, reached);
     costliest = std::max(costliest, budget.used - before);
     req.trans_bound = std::min(2.0 * req.trans_bound, m.settings.trust_step);
     req.rot_bound = std::min(2.0 * req.rot_bound, m.settings.trust_rotation);
     ++k;
   }
-  if (!reached) trace.flags |= kFlagLagging;
+  if (!reached) {
+    trace.flags |= kFlagLagging;
+    // The friction cone (paper §3.2, Figs. 10-11) is decided once the motion ends in a sub-step
+    // (solve_substep). A tool that lags behind the hand in every sub-step of every cycle would
+    // otherwise never let go of its anchors however hard the hand pulls (issue #11: pinned in 46's
+    // fossa for 3 s at up to 2.9 N): the cone is also decided on the cycle's last solve, at its
+    // configuration g0, and the next cycle starts from what it decided.
+    decide_slips(p, s.anchors, s.regions, s.rows, s.solution, g0, req.G, s.slips);
+    if (s.slips.changed > 0) {
+      trace.slips += s.slips.slipped;
+      apply_slips(s.slips, s.anchors);
+    }
+  }
   s.graphic = g;
   trace.substeps = k;
 
