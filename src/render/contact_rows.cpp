@@ -154,6 +154,28 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
       if (!add_row(group.pairs[e], r, nullptr)) return added;
     }
   }
+
+  // Pass 3, hysteresis (CarriedPairs): a compliant pair measured on a surface patch that bore load
+  // at the last solve keeps a row while it overlaps, unless its region already has a row of a
+  // similar direction or the tool has sunk past it (pass 2's depth rule).
+  const int first_row = rows.problem.row_count - added;
+  for (int i = 0; i < regions.pairs; ++i) {
+    const PairGeometry& geo = pairs.geometry[i];
+    const int r = regions.pair_region[i];
+    if (!pairs.refs[i].carried || r < 0 || !regions.regions[r].compliant || !(geo.gap < 0.0)) continue;
+    if (!std::isfinite(geo.lateral) || geo.internal) continue;  // a surface patch's direction only
+    bool covered = false;
+    double shallowest = std::numeric_limits<double>::infinity();
+    for (int row = first_row; row < rows.problem.row_count && !covered; ++row) {
+      const RowMeta& meta = rows.meta[row];
+      if (meta.kind != RowKind::Contact || meta.region != r) continue;
+      covered = pairs.geometry[meta.pair].normal.dot(geo.normal) > kCompliantNormalCos;
+      shallowest = std::min(shallowest, std::max(0.0, -pairs.geometry[meta.pair].gap));
+    }
+    // Pass 2's depth rule: a direction the tool sinks past lets go.
+    if (covered || -geo.gap > shallowest + kCompliantDepthSlack) continue;
+    if (!add_row(i, r, nullptr)) return added;
+  }
   return added;
 }
 

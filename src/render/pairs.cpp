@@ -264,4 +264,23 @@ double rigid_clearance(const Model& m, const ModelConstants& k, CollisionScratch
   return std::isfinite(closest_pair.gap) ? std::min(closest_pair.gap, 0.0) : 0.0;
 }
 
+void mark_carried_pairs(const Model& m, const ModelConstants& k, const CarriedPairs& carried, ObjectMask mask,
+                        PairSet& pairs) {
+  for (int c = 0; c < carried.count; ++c) {
+    const PairRef& ref = carried.refs[c];
+    if (((mask >> ref.object) & 1u) == 0) continue;
+    int j = 0;
+    while (j < pairs.count && !(pairs.refs[j].object_node == ref.object_node &&
+                                pairs.refs[j].tool_leaf == ref.tool_leaf && pairs.refs[j].object == ref.object))
+      ++j;
+    if (j == pairs.count) {
+      if (pairs.count >= kMaxPairs) continue;
+      pairs.refs[j] = ref;
+      pairs.geometry[j] = measure_pair(m, k, pairs.at, ref);
+      ++pairs.count;
+    }
+    pairs.refs[j].carried = true;
+  }
+}
+
 }  // namespace cariesim::detail

@@ -62,4 +62,18 @@ void solve_rows(const RowSet& rows, const RegionSet& regions, QpSolver& solver, 
   }
 }
 
+void remember_loaded_pairs(const PairSet& pairs, const RegionSet& regions, const RowSet& rows,
+                           const Solution& solution, bool in_tunnel, CarriedPairs& out) {
+  out.count = 0;
+  if (in_tunnel) return;
+  for (int row = 0; row < rows.problem.row_count && out.count < kMaxCarried; ++row) {
+    const RowMeta& meta = rows.meta[row];
+    if (meta.kind != RowKind::Contact || meta.region < 0 || !regions.regions[meta.region].compliant) continue;
+    if (!(solution.qp.lambda[row] > 0.0)) continue;
+    PairRef ref = pairs.refs[meta.pair];
+    ref.forced = ref.carried = false;
+    out.refs[out.count++] = ref;
+  }
+}
+
 }  // namespace cariesim::detail

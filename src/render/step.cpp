@@ -114,6 +114,7 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   if (free) {
     s.graphic = haptic;
     s.regions.count = 0;
+    s.carried.count = 0;
     release_anchors(s.anchors);
     s.tip.lesion = -1;
     s.interaction = InteractionState::Free;

@@ -2,7 +2,8 @@
 // stages.hpp in order:
 //   1. collision: every sphere pair the tool can reach while moving by at most the sub-step's bound,
 //      measured at g0;
-//   2. one solve: regions, anchors, rows (contact, friction, tunnel), the QP;
+//   2. one solve: regions, anchors, rows (contact, friction, tunnel), the QP; the pairs whose
+//      compliant rows bore load are carried to the next solve (hysteresis, CarriedPairs);
 //   3. slip: the friction cone at the final solve (the motion ends in this sub-step); slipped or
 //      released anchors change the rows, so they are solved once more;
 //   4. re-check collision at the solution: a new rigid overlap brings its pair in and the sub-step is
@@ -46,6 +47,7 @@ Vec6 solve_once(const Model& m, const Params& p, StateImpl& s, const Pose& g0, c
   if (s.rows.full) trace.flags |= kFlagQpRowsFull;
   solve_rows(s.rows, s.regions, s.solver, s.solution);
   trace.flags |= s.solution.flags;
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, req.tunnel != nullptr, s.carried);
   return s.solution.d;
 }
 
@@ -62,6 +64,7 @@ Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0
   // Stage 1: pairs within reach of this sub-step's largest motion, measured at g0.
   set_leaf_margins(m, s.constants, req.trans_bound, req.rot_bound, s.collision);
   if (!collect_pairs(m, s.constants, s.collision, g0, req.mask, s.pairs)) trace.flags |= kFlagContactOverflow;
+  mark_carried_pairs(m, s.constants, s.carried, req.mask, s.pairs);
 
   const double tol = m.settings.rigid_tolerance;
   const int max_passes = m.settings.max_rechecks + 2;

@@ -275,6 +275,85 @@ TEST(ContactRows, CompliantRegionGivesOneRowPerDirection) {
   EXPECT_DOUBLE_EQ(row.compliance, 1.0 / k);
 }
 
+// Hysteresis of the compliant rows (issue #11: in a soft fissure the tool chattered between a pose
+// where a wall's direction had a row and one where the election left it out): a pair that bore load
+// at the last solve (carried) keeps a row of its own while it overlaps, unless its region already
+// has a row of a similar direction or it lies deeper than pass 2's depth rule allows. Here one
+// compliant region holds more surface directions than the kMaxRowsPerGroup the election keeps.
+TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
+  const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  ASSERT_EQ(kMaxRowsPerGroup, 3);
+  const SphereTree& tree = m.objects[0].tree;
+  // Depth (mm, negative: clear) and unit normal of each pair, all of the tip's leaf, on patches.
+  const std::vector<std::pair<double, Vec3>> given = {
+      {0.20, Vec3(0.0, -0.6, 0.8)},                // 0: founds the region, too deep for a row
+      {0.10, Vec3(0.0, 0.0, 1.0)},                 // 1: elected, a row
+      {0.09, Vec3(0.6, 0.0, 0.8)},                 // 2: elected, a row
+      {0.08, Vec3(-0.6, 0.0, 0.8)},                // 3: a fourth direction: the group is full
+      {0.06, Vec3(0.1, 0.0, 0.995).normalized()},  // 4: 6 degrees from pair 1's direction
+      {-0.01, Vec3(0.0, 0.6, 0.8)}};               // 5: clear of the surface
+  const auto rows_for = [&](std::initializer_list<int> carried) {
+    s.pairs.count = 0;
+    s.pairs.at = probe_at(Vec3(0, 0, 0));
+    for (std::size_t i = 0; i < given.size(); ++i) {
+      PairRef& ref = s.pairs.refs[s.pairs.count];
+      ref = PairRef{tree.leaf_nodes[i], 0, 0, false};
+      for (int c : carried) ref.carried = ref.carried || c == static_cast<int>(i);
+      PairGeometry& geo = s.pairs.geometry[s.pairs.count++];
+      geo.normal = given[i].second;
+      geo.lever = Vec3::Zero();
+      geo.wall = geo.internal = false;
+      geo.gap = -given[i].first;
+      geo.lateral = 0.01;
+    }
+    build_regions(m, s.constants, s.pairs, s.regions);
+    EXPECT_EQ(s.regions.count, 1);
+    s.rows.clear(Mat6::Identity(), Vec6::Zero());
+    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+    std::set<int> pairs;
+    for (int r = 0; r < s.rows.problem.row_count; ++r) {
+      EXPECT_EQ(s.rows.meta[r].kind, RowKind::Contact);
+      EXPECT_DOUBLE_EQ(s.rows.problem.rows[r].compliance, 1.0);
+      pairs.insert(s.rows.meta[r].pair);
+    }
+    return pairs;
+  };
+  // The election keeps pairs 0, 1 and 2; pass 2 gives rows to those within kCompliantDepthSlack of
+  // the shallowest (0.09 mm).
+  EXPECT_EQ(rows_for({}), (std::set<int>{1, 2}));
+  // Carried, the fourth direction gets its row back.
+  EXPECT_EQ(rows_for({3}), (std::set<int>{1, 2, 3}));
+  // Not a pair whose direction already has a row, nor one too deep for the depth rule, nor one that
+  // no longer overlaps.
+  EXPECT_EQ(rows_for({4}), (std::set<int>{1, 2}));
+  EXPECT_EQ(rows_for({0}), (std::set<int>{1, 2}));
+  EXPECT_EQ(rows_for({5}), (std::set<int>{1, 2}));
+}
+
+// The step carries the compliant pairs that bore load to its next solve, and forgets them in free
+// space.
+TEST(Solve, TheStepCarriesLoadedCompliantPairsAndForgetsThemInFreeSpace) {
+  const Model m = slab_model(test::soft(0.5), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  for (int i = 0; i < 50; ++i) step(m, state, HapticInput{probe_at(Vec3(0, 0, kTip - 0.5)), 0.001});
+  ASSERT_GT(s.carried.count, 0);
+  for (int c = 0; c < s.carried.count; ++c) {
+    bool loaded = false;
+    for (int r = 0; r < s.rows.problem.row_count; ++r) {
+      const RowMeta& meta = s.rows.meta[r];
+      loaded = loaded || (meta.kind == RowKind::Contact && s.solution.qp.lambda[r] > 0.0 &&
+                          s.pairs.refs[meta.pair].object_node == s.carried.refs[c].object_node &&
+                          s.pairs.refs[meta.pair].tool_leaf == s.carried.refs[c].tool_leaf);
+    }
+    EXPECT_TRUE(loaded) << "carried pair " << c << " bore no load at the last solve";
+  }
+  for (int i = 0; i < 5; ++i) step(m, state, HapticInput{probe_at(Vec3(0, 0, 3)), 0.001});
+  EXPECT_EQ(s.carried.count, 0);
+}
+
 // A sphere pressed onto a compliant plane, the stages end to end: the tip sits `depth` below the
 // surface and the hand `push` further down; the multiplier is the series spring force
 // (depth + push) / (1/k_t + 1/k), the region carries it, the coupling balances it and the tool sinks
