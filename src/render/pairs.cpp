@@ -177,25 +177,26 @@ bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c,
 
 namespace {
 
-// Adds a pair found overlapping at a solution to `pairs` (forced, measured at pairs.at) unless the set
-// is full; a pair already listed without a row is marked forced, so that it gets one.
-void add_forced(const Model& m, const ModelConstants& k, const Contact& con, PairSet& pairs, Recheck& out) {
+// The index of `ref` in `pairs`, appending it (measured at pairs.at) when it is not listed; -1 when
+// it is not listed and the set is full.
+int list_pair(const Model& m, const ModelConstants& k, const PairRef& ref, PairSet& pairs) {
   for (int j = 0; j < pairs.count; ++j) {
-    PairRef& p = pairs.refs[j];
-    if (p.object_node == con.object_node && p.tool_leaf == con.tool_leaf && p.object == con.object) {
-      // Listed but left without a row (its normal was close to a deeper pair's): it gets one now.
-      if (!p.forced) {
-        p.forced = true;
-        ++out.added;
-      }
-      return;
-    }
+    const PairRef& p = pairs.refs[j];
+    if (p.object_node == ref.object_node && p.tool_leaf == ref.tool_leaf && p.object == ref.object) return j;
   }
-  if (pairs.count >= kMaxPairs) return;
-  const PairRef ref{con.object_node, con.tool_leaf, con.object, true};
+  if (pairs.count >= kMaxPairs) return -1;
   pairs.refs[pairs.count] = ref;
   pairs.geometry[pairs.count] = measure_pair(m, k, pairs.at, ref);
-  ++pairs.count;
+  return pairs.count++;
+}
+
+// Adds a pair found overlapping at a solution to `pairs` (forced) unless the set is full; a pair
+// already listed without a row (its normal was close to a deeper pair's) is marked forced, so that
+// it gets one.
+void add_forced(const Model& m, const ModelConstants& k, const Contact& con, PairSet& pairs, Recheck& out) {
+  const int j = list_pair(m, k, PairRef{con.object_node, con.tool_leaf, con.object, false}, pairs);
+  if (j < 0 || pairs.refs[j].forced) return;
+  pairs.refs[j].forced = true;
   ++out.added;
 }
 
@@ -269,17 +270,8 @@ void mark_carried_pairs(const Model& m, const ModelConstants& k, const CarriedPa
   for (int c = 0; c < carried.count; ++c) {
     const PairRef& ref = carried.refs[c];
     if (((mask >> ref.object) & 1u) == 0) continue;
-    int j = 0;
-    while (j < pairs.count && !(pairs.refs[j].object_node == ref.object_node &&
-                                pairs.refs[j].tool_leaf == ref.tool_leaf && pairs.refs[j].object == ref.object))
-      ++j;
-    if (j == pairs.count) {
-      if (pairs.count >= kMaxPairs) continue;
-      pairs.refs[j] = ref;
-      pairs.geometry[j] = measure_pair(m, k, pairs.at, ref);
-      ++pairs.count;
-    }
-    pairs.refs[j].carried = true;
+    const int j = list_pair(m, k, ref, pairs);
+    if (j >= 0) pairs.refs[j].carried = true;
   }
 }
 
