@@ -415,11 +415,15 @@ struct SubstepRequest {
 /// Solves one sub-step from g0 (paper eq. 1 linearised: DESIGN.md §4 steps 1-4): the graphic tool is
 /// pulled toward the full target but moves at most by the bounds (the solution is shortened onto
 /// them; every pair within reach of that motion is in the rows). Sets `reached` when the solution
-/// was within the bounds (the last sub-step of a cycle; the friction cone is checked only then).
+/// was within the bounds (the last sub-step of a cycle; the friction cone is checked then, and by
+/// sliding_step after a cycle none of whose sub-steps reached).
 /// Never leaves the tool overlapping rigid tissue by more than the tolerance when g0 did not:
 /// re-checks collision at the solution, re-solves with new pairs, backtracks if needed.
 Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
                    StepTrace& trace, bool& reached);
+/// The friction cone on the last solve, made at g0 with coupling G (paper §3.2): slipping anchors
+/// move, unloaded ones release (counted in trace.slips). True when any anchor changed.
+bool slip_anchors(const Params& p, StateImpl& s, const Pose& g0, const Mat6& G, StepTrace& trace);
 
 /// The sliding state for one cycle (paper §3.2): bounded sub-steps toward the haptic tool, friction on
 /// caries, then new anchors and what the tip touches.

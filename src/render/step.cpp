@@ -160,11 +160,7 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
     // otherwise never let go of its anchors however hard the hand pulls (issue #11: pinned in 46's
     // fossa for 3 s at up to 2.9 N): the cone is also decided on the cycle's last solve, at its
     // configuration g0, and the next cycle starts from what it decided.
-    decide_slips(p, s.anchors, s.regions, s.rows, s.solution, g0, req.G, s.slips);
-    if (s.slips.changed > 0) {
-      trace.slips += s.slips.slipped;
-      apply_slips(s.slips, s.anchors);
-    }
+    slip_anchors(p, s, g0, req.G, trace);
   }
   s.graphic = g;
   trace.substeps = k;

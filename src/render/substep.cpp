@@ -59,6 +59,14 @@ double bound_scale(const Vec6& d, const SubstepRequest& req) {
 
 }  // namespace
 
+bool slip_anchors(const Params& p, StateImpl& s, const Pose& g0, const Mat6& G, StepTrace& trace) {
+  decide_slips(p, s.anchors, s.regions, s.rows, s.solution, g0, G, s.slips);
+  if (s.slips.changed == 0) return false;
+  trace.slips += s.slips.slipped;
+  apply_slips(s.slips, s.anchors);
+  return true;
+}
+
 Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
                    StepTrace& trace, bool& reached) {
   // Stage 1: pairs within reach of this sub-step's largest motion, measured at g0.
@@ -82,10 +90,7 @@ Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0
     // between two solves, and the rows are solved again.
     if (reached && !friction_checked) {
       friction_checked = true;
-      decide_slips(p, s.anchors, s.regions, s.rows, s.solution, g0, req.G, s.slips);
-      if (s.slips.changed > 0) {
-        trace.slips += s.slips.slipped;
-        apply_slips(s.slips, s.anchors);
+      if (slip_anchors(p, s, g0, req.G, trace)) {
         d = solve_once(m, p, s, g0, req, trace);
         d *= bound_scale(d, req);
       }
