@@ -92,7 +92,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
   };
 
   // Pass 1, pairs from the deepest: rigid pairs get rows, a few per (tool leaf, object) with distinct
-  // normals (the rest are redundant). Compliant pairs elect, per region and distinct surface
+  // normals (the rest are redundant), and every forced or carried one. Compliant pairs elect, per region and distinct surface
   // direction, one pair of the deepest tool leaf: the leaf whose tangent point lies nearest that tool
   // leaf sideways, the best local estimate of the surface (so that many overlapping spheres do not
   // act as parallel springs).
@@ -120,7 +120,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
       }
       continue;
     }
-    if (group != nullptr && !p.forced) {
+    if (group != nullptr && !p.forced && !p.carried) {  // a carried rigid pair keeps its row (CarriedPairs)
       bool similar = false;
       for (int e = 0; e < group->count; ++e)
         similar = similar || pairs.geometry[group->pairs[e]].normal.dot(geo.normal) > kRigidNormalCos;

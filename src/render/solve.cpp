@@ -63,14 +63,20 @@ void solve_rows(const RowSet& rows, const RegionSet& regions, QpSolver& solver, 
 }
 
 void remember_loaded_pairs(const PairSet& pairs, const RegionSet& regions, const RowSet& rows,
-                           const Solution& solution, bool in_tunnel, CarriedPairs& out) {
+                           const Solution& solution, bool in_tunnel, std::span<const ContactSet::Capped> capped,
+                           CarriedPairs& out) {
   out.count = 0;
   if (in_tunnel) return;
+  const auto was_capped = [&](const PairRef& ref) {
+    return std::any_of(capped.begin(), capped.end(), [&](const ContactSet::Capped& c) {
+      return c.tool_leaf == ref.tool_leaf && c.object == ref.object;
+    });
+  };
   for (int row = 0; row < rows.problem.row_count && out.count < kMaxCarried; ++row) {
     const RowMeta& meta = rows.meta[row];
-    if (meta.kind != RowKind::Contact || meta.region < 0 || !regions.regions[meta.region].compliant) continue;
-    if (!(solution.qp.lambda[row] > 0.0)) continue;
+    if (meta.kind != RowKind::Contact || meta.region < 0 || !(solution.qp.lambda[row] > 0.0)) continue;
     PairRef ref = pairs.refs[meta.pair];
+    if (!regions.regions[meta.region].compliant && !was_capped(ref)) continue;
     ref.forced = ref.carried = false;
     out.refs[out.count++] = ref;
   }

@@ -72,7 +72,7 @@ inline constexpr double kRigidNormalCos = 0.97;  ///< rigid rows closer in direc
 inline constexpr double kCompliantNormalCos = 0.9;  ///< compliant rows closer would add stiffness
 /// mm: compliant directions this much deeper than the shallowest do not push.
 inline constexpr double kCompliantDepthSlack = 0.05;
-inline constexpr int kMaxCarried = 8;  ///< compliant pairs carried from one solve to the next
+inline constexpr int kMaxCarried = 16;  ///< pairs carried from one solve to the next (CarriedPairs)
 
 /// 6-D difference (translation mm, rotation vector rad) that moves `from` onto `to`.
 Vec6 config_difference(const Pose& to, const Pose& from);
@@ -99,7 +99,7 @@ struct PairRef {
   uint16_t tool_leaf = 0;
   uint16_t object = 0;
   bool forced = false;  ///< found overlapping at a solution by the re-check: always gets its own row
-  bool carried = false;  ///< compliant, and bore load at the last solve: keeps its row while it overlaps
+  bool carried = false;  ///< bore load at the last solve (CarriedPairs): its row is kept
 };
 
 /// The geometry of a pair at one configuration.
@@ -350,18 +350,27 @@ uint32_t flags_of(QpStatus status);
 /// Solves the rows; maps the status to flags; sums each region's normal force.
 void solve_rows(const RowSet& rows, const RegionSet& regions, QpSolver& solver, Solution& out);
 
-/// Hysteresis of the compliant rows (issue #11): the pairs whose compliant contact rows bore load at
-/// the last solve. Without it a tool pressed into a soft fissure chattered at half the servo rate:
-/// the rows at one pose (two walls) put the solution where the election left one wall out, and the
-/// rows there put it back.
+/// Hysteresis of the contact rows (issue #11): the pairs whose contact rows bore load at the last
+/// solve.
+/// - Compliant: without it a tool pressed into a soft fissure chattered at half the servo rate: the
+///   rows at one pose (two walls) put the solution where the election left one wall out, and the
+///   rows there put it back. A carried compliant pair keeps its row while it overlaps, unless its
+///   region has a row of a similar direction or the depth rule drops it (build_contact_rows pass 3).
+/// - Rigid, of a (tool leaf, object) whose quota was full in the collection: which of that leaf's
+///   pairs were listed is the traversal's choice, and the dedupe of pass 1 may give the row of the
+///   pair that held the tool to a deeper one of a similar direction. The solution then slid into the
+///   held pair by up to the rigid tolerance and a second sub-step pushed it back out (oral sliding:
+///   4 % of the steps undid their first sub-step's 0.01 mm). A carried rigid pair gets its row.
 struct CarriedPairs {
   std::array<PairRef, kMaxCarried> refs{};
   int count = 0;
 };
-/// Remembers the pairs of the compliant contact rows with a positive multiplier (at most kMaxCarried;
-/// none inside a tunnel, whose rows hold the tool).
+/// Remembers the pairs of the contact rows with a positive multiplier that are compliant, or rigid of
+/// a (tool leaf, object) in `capped` (at most kMaxCarried; none inside a tunnel, whose rows hold the
+/// tool).
 void remember_loaded_pairs(const PairSet& pairs, const RegionSet& regions, const RowSet& rows,
-                           const Solution& solution, bool in_tunnel, CarriedPairs& out);
+                           const Solution& solution, bool in_tunnel, std::span<const ContactSet::Capped> capped,
+                           CarriedPairs& out);
 /// Marks the carried pairs of the objects in `mask` in `pairs` (`carried`), adding those not listed
 /// (measured at pairs.at) while there is room; the contact rows then keep their directions.
 void mark_carried_pairs(const Model& m, const ModelConstants& k, const CarriedPairs& carried, ObjectMask mask,

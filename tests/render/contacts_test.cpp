@@ -332,6 +332,62 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
   EXPECT_EQ(rows_for({5}), (std::set<int>{1, 2}));
 }
 
+// Rigid rows are deduplicated per (tool leaf, object): a pair within kRigidNormalCos of a deeper
+// pair's direction gets no row, unless it is carried (it bore load at the last solve while its tool
+// leaf's quota was full). The step carries only such rigid pairs, and every loaded compliant one.
+TEST(ContactRows, ACarriedRigidPairOfACappedLeafKeepsItsRow) {
+  const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  const SphereTree& tree = m.objects[0].tree;
+  const Vec3 tilted = Vec3(0.1, 0.0, 0.995).normalized();  // 6 degrees from the deeper pair's normal
+  ASSERT_GT(tilted.z(), kRigidNormalCos);
+  const auto build = [&](bool carried) {
+    s.pairs.count = 2;
+    s.pairs.at = probe_at(Vec3(0, 0, 0));
+    s.pairs.refs[0] = PairRef{tree.leaf_nodes[0], 0, 0, false};
+    s.pairs.refs[1] = PairRef{tree.leaf_nodes[1], 0, 0, false};
+    s.pairs.refs[1].carried = carried;
+    for (int i = 0; i < 2; ++i) {
+      PairGeometry& geo = s.pairs.geometry[i];
+      geo.normal = i == 0 ? Vec3(0, 0, 1) : tilted;
+      geo.lever = Vec3::Zero();
+      geo.wall = geo.internal = false;
+      geo.gap = i == 0 ? -0.004 : -0.002;
+      geo.lateral = std::numeric_limits<double>::infinity();
+    }
+    build_regions(m, s.constants, s.pairs, s.regions);
+    s.rows.clear(Mat6::Identity(), Vec6::Zero());
+    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+    std::set<int> pairs;
+    for (int r = 0; r < s.rows.problem.row_count; ++r) pairs.insert(s.rows.meta[r].pair);
+    return pairs;
+  };
+  EXPECT_EQ(build(false), (std::set<int>{0}));
+  EXPECT_EQ(build(true), (std::set<int>{0, 1}));
+
+  // Both rows loaded: the rigid pair is remembered only when its (tool leaf, object) was capped.
+  ASSERT_EQ(s.rows.problem.row_count, 2);
+  s.solution.qp.lambda.fill(0.0);
+  s.solution.qp.lambda[0] = s.solution.qp.lambda[1] = 0.5;
+  const std::vector<ContactSet::Capped> none, capped = {{0, 0}}, other_leaf = {{1, 0}};
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, false, none, s.carried);
+  EXPECT_EQ(s.carried.count, 0);
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, false, other_leaf, s.carried);
+  EXPECT_EQ(s.carried.count, 0);
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, false, capped, s.carried);
+  ASSERT_EQ(s.carried.count, 2);
+  EXPECT_EQ(s.carried.refs[1].object_node, tree.leaf_nodes[1]);
+  EXPECT_FALSE(s.carried.refs[1].carried);  // remembered as a plain reference
+  // Nothing inside a tunnel, and nothing whose row bore no load.
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, true, capped, s.carried);
+  EXPECT_EQ(s.carried.count, 0);
+  s.solution.qp.lambda[1] = 0.0;
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, false, capped, s.carried);
+  ASSERT_EQ(s.carried.count, 1);
+  EXPECT_EQ(s.carried.refs[0].object_node, tree.leaf_nodes[0]);
+}
+
 // The step carries the compliant pairs that bore load to its next solve, and forgets them in free
 // space.
 TEST(Solve, TheStepCarriesLoadedCompliantPairsAndForgetsThemInFreeSpace) {
