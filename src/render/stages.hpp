@@ -70,8 +70,12 @@ inline constexpr double kRegionRadius = 1.0;     ///< mm: tool leaves this close
 inline constexpr int kMaxRowsPerGroup = 3;       ///< rows per rigid (tool leaf, object) or compliant region
 inline constexpr double kRigidNormalCos = 0.97;  ///< rigid rows closer in direction are redundant
 inline constexpr double kCompliantNormalCos = 0.9;  ///< compliant rows closer would add stiffness
-/// mm: compliant directions this much deeper than the shallowest do not push.
+/// mm: a compliant direction up to this much deeper than the shallowest pushes with the tissue's
+/// stiffness; deeper, its stiffness fades linearly, to none at twice this (compliant_depth_fade).
 inline constexpr double kCompliantDepthSlack = 0.05;
+/// The share (0-1] of the tissue's stiffness a compliant direction `depth` (mm) deep pushes with when
+/// the region's shallowest is `shallowest` (mm); 0 when it makes no row.
+double compliant_depth_fade(double depth, double shallowest);
 inline constexpr int kMaxCarried = 16;  ///< pairs carried from one solve to the next (CarriedPairs)
 
 /// 6-D difference (translation mm, rotation vector rad) that moves `from` onto `to`.

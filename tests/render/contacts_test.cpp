@@ -332,6 +332,51 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
   EXPECT_EQ(rows_for({5}), (std::set<int>{1, 2}));
 }
 
+// Pass 2's depth rule is continuous: a compliant direction within kCompliantDepthSlack of the
+// shallowest pushes with the tissue's stiffness, a deeper one with a share that falls linearly to
+// none at twice the slack.
+TEST(ContactRows, ADirectionPastTheDepthSlackFadesOut) {
+  ASSERT_DOUBLE_EQ(kCompliantDepthSlack, 0.05);
+  EXPECT_DOUBLE_EQ(compliant_depth_fade(0.0, 0.0), 1.0);
+  EXPECT_DOUBLE_EQ(compliant_depth_fade(0.15, 0.1), 1.0);
+  EXPECT_NEAR(compliant_depth_fade(0.175, 0.1), 0.5, 1e-12);
+  EXPECT_NEAR(compliant_depth_fade(0.19, 0.1), 0.2, 1e-12);
+  EXPECT_EQ(compliant_depth_fade(0.2, 0.1), 0.0);
+  EXPECT_EQ(compliant_depth_fade(0.3, 0.1), 0.0);
+
+  const double k = 0.5;  // N/mm
+  const Model m = slab_model(test::soft(k), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  const SphereTree& tree = m.objects[0].tree;
+  // Depth (mm) and unit normal of each pair, all of the tip's leaf, on patches, three directions.
+  const std::vector<std::pair<double, Vec3>> given = {
+      {0.20, Vec3(0.0, -0.6, 0.8)},   // 0.1 mm past the slack: no row
+      {0.125, Vec3(0.6, 0.0, 0.8)},   // 0.025 mm past it: half the stiffness
+      {0.05, Vec3(0.0, 0.0, 1.0)}};   // the shallowest: the tissue's stiffness
+  s.pairs.count = 0;
+  s.pairs.at = probe_at(Vec3(0, 0, 0));
+  for (std::size_t i = 0; i < given.size(); ++i) {
+    s.pairs.refs[s.pairs.count] = PairRef{tree.leaf_nodes[i], 0, 0, false};
+    PairGeometry& geo = s.pairs.geometry[s.pairs.count++];
+    geo.normal = given[i].second;
+    geo.lever = Vec3::Zero();
+    geo.wall = geo.internal = false;
+    geo.gap = -given[i].first;
+    geo.lateral = 0.01;
+  }
+  build_regions(m, s.constants, s.pairs, s.regions);
+  ASSERT_EQ(s.regions.count, 1);
+  s.rows.clear(Mat6::Identity(), Vec6::Zero());
+  build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+  std::map<int, double> compliance;
+  for (int r = 0; r < s.rows.problem.row_count; ++r) compliance[s.rows.meta[r].pair] = s.rows.problem.rows[r].compliance;
+  EXPECT_EQ(compliance.size(), 2u);
+  EXPECT_EQ(compliance.count(0), 0u);
+  EXPECT_NEAR(compliance[1], 2.0 / k, 1e-9);
+  EXPECT_NEAR(compliance[2], 1.0 / k, 1e-9);
+}
+
 // Rigid rows are deduplicated per (tool leaf, object): a pair within kRigidNormalCos of a deeper
 // pair's direction gets no row, unless it is carried (it bore load at the last solve while its tool
 // leaf's quota was full). The step carries only such rigid pairs, and every loaded compliant one.
