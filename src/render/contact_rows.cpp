@@ -118,10 +118,17 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
         if (pairs.geometry[group->pairs[e]].normal.dot(geo.normal) > kCompliantNormalCos) similar = e;
       if (similar >= 0) {
         // Pairs come deepest first, so the elector's tool leaf is the deepest; among that leaf's
-        // pairs the patch nearest the tool sideways describes the surface best.
-        const int elector = group->pairs[similar];
-        if (pairs.refs[elector].tool_leaf == p.tool_leaf && geo.lateral < pairs.geometry[elector].lateral)
-          group->pairs[similar] = static_cast<int16_t>(i);
+        // pairs the patch nearest the tool sideways describes the surface best. Between two tool
+        // leaves, though, the one whose pair bore load at the last solve (carried) keeps the
+        // direction's vote: two tip leaves about as deep took turns at being the deepest, and with
+        // them the patch elected and the solution (issue #11: a five-step cycle of 0.01 mm on the
+        // oral fissure). Within one leaf the vote stays with the nearest patch (the Fig. 12 hook
+        // needs it).
+        const PairRef& elector = pairs.refs[group->pairs[similar]];
+        const bool replace = elector.tool_leaf != p.tool_leaf
+                                 ? p.carried && !elector.carried
+                                 : geo.lateral < pairs.geometry[group->pairs[similar]].lateral;
+        if (replace) group->pairs[similar] = static_cast<int16_t>(i);
       } else if (group->count < kMaxRowsPerGroup) {
         group->pairs[group->count++] = static_cast<int16_t>(i);
       }

@@ -332,6 +332,42 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
   EXPECT_EQ(rows_for({5}), (std::set<int>{1, 2}));
 }
 
+// Of two pairs of a similar direction the deeper tool leaf's elects, unless the other one's row bore
+// load at the last solve (carried): then it keeps the vote, so that two tool leaves about as deep do
+// not take turns at choosing the surface.
+TEST(ContactRows, ACarriedPairKeepsItsDirectionsVote) {
+  const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  ASSERT_GE(s.constants.tool_leaves, 2u);
+  const SphereTree& tree = m.objects[0].tree;
+  const auto elected = [&](bool carried) {
+    s.pairs.count = 2;
+    s.pairs.at = probe_at(Vec3(0, 0, 0));
+    // Pair 0: tool leaf 1, 0.06 mm deep, up. Pair 1: tool leaf 0, 0.05 mm deep, 6 degrees off.
+    s.pairs.refs[0] = PairRef{tree.leaf_nodes[0], 1, 0, false};
+    s.pairs.refs[1] = PairRef{tree.leaf_nodes[1], 0, 0, false};
+    s.pairs.refs[1].carried = carried;
+    for (int i = 0; i < 2; ++i) {
+      PairGeometry& geo = s.pairs.geometry[i];
+      geo.normal = i == 0 ? Vec3(0, 0, 1) : Vec3(0.1, 0.0, 0.995).normalized();
+      geo.lever = Vec3::Zero();
+      geo.wall = geo.internal = false;
+      geo.gap = i == 0 ? -0.06 : -0.05;
+      geo.lateral = 0.01;
+    }
+    build_regions(m, s.constants, s.pairs, s.regions);
+    EXPECT_EQ(s.regions.count, 1);
+    s.rows.clear(Mat6::Identity(), Vec6::Zero());
+    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+    std::set<int> pairs;
+    for (int r = 0; r < s.rows.problem.row_count; ++r) pairs.insert(s.rows.meta[r].pair);
+    return pairs;
+  };
+  EXPECT_EQ(elected(false), (std::set<int>{0}));
+  EXPECT_EQ(elected(true), (std::set<int>{1}));
+}
+
 // Pass 2's depth rule is continuous: a compliant direction within kCompliantDepthSlack of the
 // shallowest pushes with the tissue's stiffness, a deeper one with a share that falls linearly to
 // none at twice the slack.
