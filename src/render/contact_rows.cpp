@@ -99,10 +99,10 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
   };
 
   // Pass 1, pairs from the deepest: rigid pairs get rows, a few per (tool leaf, object) with distinct
-  // normals (the rest are redundant), and every forced or carried one. Compliant pairs elect, per region and distinct surface
-  // direction, one pair of the deepest tool leaf: the leaf whose tangent point lies nearest that tool
-  // leaf sideways, the best local estimate of the surface (so that many overlapping spheres do not
-  // act as parallel springs).
+  // normals (the rest are redundant), and every forced or carried one. Compliant pairs elect, per
+  // region and distinct surface direction, one pair of the deepest tool leaf: the leaf whose tangent
+  // point lies nearest that tool leaf sideways, the best local estimate of the surface (so that many
+  // overlapping spheres do not act as parallel springs).
   for (int j = 0; j < regions.pairs; ++j) {
     const int i = regions.order[j];
     const int r = regions.pair_region[i];

@@ -63,8 +63,8 @@ void solve_rows(const RowSet& rows, const RegionSet& regions, QpSolver& solver, 
 }
 
 void remember_loaded_pairs(const PairSet& pairs, const RegionSet& regions, const RowSet& rows,
-                           const Solution& solution, bool in_tunnel, std::span<const ContactSet::Capped> capped,
-                           CarriedPairs& out) {
+                           const Solution& solution, bool in_tunnel,
+                           std::span<const ContactSet::Capped> capped, CarriedPairs& out) {
   out.count = 0;
   if (in_tunnel) return;
   const auto was_capped = [&](const PairRef& ref) {

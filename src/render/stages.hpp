@@ -373,8 +373,8 @@ struct CarriedPairs {
 /// a (tool leaf, object) in `capped` (at most kMaxCarried; none inside a tunnel, whose rows hold the
 /// tool).
 void remember_loaded_pairs(const PairSet& pairs, const RegionSet& regions, const RowSet& rows,
-                           const Solution& solution, bool in_tunnel, std::span<const ContactSet::Capped> capped,
-                           CarriedPairs& out);
+                           const Solution& solution, bool in_tunnel,
+                           std::span<const ContactSet::Capped> capped, CarriedPairs& out);
 /// Marks the carried pairs of the objects in `mask` in `pairs` (`carried`), adding those not listed
 /// (measured at pairs.at) while there is room; the contact rows then keep their directions.
 void mark_carried_pairs(const Model& m, const ModelConstants& k, const CarriedPairs& carried, ObjectMask mask,

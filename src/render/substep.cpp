@@ -47,8 +47,8 @@ Vec6 solve_once(const Model& m, const Params& p, StateImpl& s, const Pose& g0, c
   if (s.rows.full) trace.flags |= kFlagQpRowsFull;
   solve_rows(s.rows, s.regions, s.solver, s.solution);
   trace.flags |= s.solution.flags;
-  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, req.tunnel != nullptr, s.collision.contacts.capped(),
-                        s.carried);
+  remember_loaded_pairs(s.pairs, s.regions, s.rows, s.solution, req.tunnel != nullptr,
+                        s.collision.contacts.capped(), s.carried);
   return s.solution.d;
 }
 

@@ -275,6 +275,52 @@ TEST(ContactRows, CompliantRegionGivesOneRowPerDirection) {
   EXPECT_DOUBLE_EQ(row.compliance, 1.0 / k);
 }
 
+// A hand-made pair for the row builder: object 0's leaf `leaf` (in leaf order) against `tool_leaf`,
+// `depth` mm deep (negative: clear) along the unit `normal`, its patch `lateral` mm sideways of the tool
+// leaf (infinite: measured sphere against sphere).
+struct GivenPair {
+  int leaf;
+  uint16_t tool_leaf;
+  double depth;
+  Vec3 normal;
+  double lateral = 0.01;
+  bool carried = false;
+};
+
+// Lists `given` as the pairs of `s` (at the origin), builds the regions and the contact rows, and
+// returns each row's compliance (mm/N) by its pair's index in `given`.
+std::map<int, double> contact_rows_of(const Model& m, StateImpl& s, const std::vector<GivenPair>& given) {
+  s.pairs.count = 0;
+  s.pairs.at = probe_at(Vec3(0, 0, 0));
+  for (const GivenPair& g : given) {
+    PairRef& ref = s.pairs.refs[s.pairs.count];
+    ref = PairRef{m.objects[0].tree.leaf_nodes[static_cast<std::size_t>(g.leaf)], g.tool_leaf, 0, false};
+    ref.carried = g.carried;
+    PairGeometry& geo = s.pairs.geometry[s.pairs.count++];
+    geo.normal = g.normal;
+    geo.lever = Vec3::Zero();
+    geo.wall = geo.internal = false;
+    geo.gap = -g.depth;
+    geo.lateral = g.lateral;
+  }
+  build_regions(m, s.constants, s.pairs, s.regions);
+  EXPECT_EQ(s.regions.count, 1);
+  s.rows.clear(Mat6::Identity(), Vec6::Zero());
+  build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
+  std::map<int, double> out;
+  for (int r = 0; r < s.rows.problem.row_count; ++r) {
+    EXPECT_EQ(s.rows.meta[r].kind, RowKind::Contact);
+    out[s.rows.meta[r].pair] = s.rows.problem.rows[r].compliance;
+  }
+  return out;
+}
+
+std::set<int> pairs_of(const std::map<int, double>& rows) {
+  std::set<int> out;
+  for (const auto& [pair, compliance] : rows) out.insert(pair);
+  return out;
+}
+
 // Hysteresis of the compliant rows (issue #11: in a soft fissure the tool chattered between a pose
 // where a wall's direction had a row and one where the election left it out): a pair that bore load
 // at the last solve (carried) keeps a row of its own while it overlaps, unless its region already
@@ -285,51 +331,31 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
   ASSERT_EQ(kMaxRowsPerGroup, 3);
-  const SphereTree& tree = m.objects[0].tree;
-  // Depth (mm, negative: clear) and unit normal of each pair, all of the tip's leaf, on patches.
-  const std::vector<std::pair<double, Vec3>> given = {
-      {0.20, Vec3(0.0, -0.6, 0.8)},                // 0: founds the region, too deep for a row
-      {0.10, Vec3(0.0, 0.0, 1.0)},                 // 1: elected, a row
-      {0.09, Vec3(0.6, 0.0, 0.8)},                 // 2: elected, a row
-      {0.08, Vec3(-0.6, 0.0, 0.8)},                // 3: a fourth direction: the group is full
-      {0.06, Vec3(0.1, 0.0, 0.995).normalized()},  // 4: 6 degrees from pair 1's direction
-      {-0.01, Vec3(0.0, 0.6, 0.8)}};               // 5: clear of the surface
-  const auto rows_for = [&](std::initializer_list<int> carried) {
-    s.pairs.count = 0;
-    s.pairs.at = probe_at(Vec3(0, 0, 0));
-    for (std::size_t i = 0; i < given.size(); ++i) {
-      PairRef& ref = s.pairs.refs[s.pairs.count];
-      ref = PairRef{tree.leaf_nodes[i], 0, 0, false};
-      for (int c : carried) ref.carried = ref.carried || c == static_cast<int>(i);
-      PairGeometry& geo = s.pairs.geometry[s.pairs.count++];
-      geo.normal = given[i].second;
-      geo.lever = Vec3::Zero();
-      geo.wall = geo.internal = false;
-      geo.gap = -given[i].first;
-      geo.lateral = 0.01;
-    }
-    build_regions(m, s.constants, s.pairs, s.regions);
-    EXPECT_EQ(s.regions.count, 1);
-    s.rows.clear(Mat6::Identity(), Vec6::Zero());
-    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
-    std::set<int> pairs;
-    for (int r = 0; r < s.rows.problem.row_count; ++r) {
-      EXPECT_EQ(s.rows.meta[r].kind, RowKind::Contact);
-      EXPECT_DOUBLE_EQ(s.rows.problem.rows[r].compliance, 1.0);
-      pairs.insert(s.rows.meta[r].pair);
-    }
-    return pairs;
+  // All of the tip's leaf, on patches.
+  const std::vector<GivenPair> given = {
+      {0, 0, 0.20, Vec3(0.0, -0.6, 0.8)},                // 0: founds the region, too deep for a row
+      {1, 0, 0.10, Vec3(0.0, 0.0, 1.0)},                 // 1: elected, a row
+      {2, 0, 0.09, Vec3(0.6, 0.0, 0.8)},                 // 2: elected, a row
+      {3, 0, 0.08, Vec3(-0.6, 0.0, 0.8)},                // 3: a fourth direction: the group is full
+      {4, 0, 0.06, Vec3(0.1, 0.0, 0.995).normalized()},  // 4: 6 degrees from pair 1's direction
+      {5, 0, -0.01, Vec3(0.0, 0.6, 0.8)}};               // 5: clear of the surface
+  const auto rows_for = [&](int carried) {
+    std::vector<GivenPair> pairs = given;
+    if (carried >= 0) pairs[static_cast<std::size_t>(carried)].carried = true;
+    const std::map<int, double> rows = contact_rows_of(m, s, pairs);
+    for (const auto& [pair, compliance] : rows) EXPECT_DOUBLE_EQ(compliance, 1.0) << "pair " << pair;
+    return pairs_of(rows);
   };
   // The election keeps pairs 0, 1 and 2; pass 2 gives rows to those within kCompliantDepthSlack of
-  // the shallowest (0.09 mm).
-  EXPECT_EQ(rows_for({}), (std::set<int>{1, 2}));
+  // the shallowest (0.09 mm), and 0 is deeper than twice that.
+  EXPECT_EQ(rows_for(-1), (std::set<int>{1, 2}));
   // Carried, the fourth direction gets its row back.
-  EXPECT_EQ(rows_for({3}), (std::set<int>{1, 2, 3}));
-  // Not a pair whose direction already has a row, nor one too deep for the depth rule, nor one that
-  // no longer overlaps.
-  EXPECT_EQ(rows_for({4}), (std::set<int>{1, 2}));
-  EXPECT_EQ(rows_for({0}), (std::set<int>{1, 2}));
-  EXPECT_EQ(rows_for({5}), (std::set<int>{1, 2}));
+  EXPECT_EQ(rows_for(3), (std::set<int>{1, 2, 3}));
+  // Not a pair whose direction already has a row of its tool leaf, nor one too deep for the depth
+  // rule, nor one that no longer overlaps.
+  EXPECT_EQ(rows_for(4), (std::set<int>{1, 2}));
+  EXPECT_EQ(rows_for(0), (std::set<int>{1, 2}));
+  EXPECT_EQ(rows_for(5), (std::set<int>{1, 2}));
 }
 
 // Of two pairs of a similar direction the deeper tool leaf's elects, unless the other one's row bore
@@ -340,29 +366,9 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsVote) {
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
   ASSERT_GE(s.constants.tool_leaves, 2u);
-  const SphereTree& tree = m.objects[0].tree;
   const auto elected = [&](bool carried) {
-    s.pairs.count = 2;
-    s.pairs.at = probe_at(Vec3(0, 0, 0));
-    // Pair 0: tool leaf 1, 0.06 mm deep, up. Pair 1: tool leaf 0, 0.05 mm deep, 6 degrees off.
-    s.pairs.refs[0] = PairRef{tree.leaf_nodes[0], 1, 0, false};
-    s.pairs.refs[1] = PairRef{tree.leaf_nodes[1], 0, 0, false};
-    s.pairs.refs[1].carried = carried;
-    for (int i = 0; i < 2; ++i) {
-      PairGeometry& geo = s.pairs.geometry[i];
-      geo.normal = i == 0 ? Vec3(0, 0, 1) : Vec3(0.1, 0.0, 0.995).normalized();
-      geo.lever = Vec3::Zero();
-      geo.wall = geo.internal = false;
-      geo.gap = i == 0 ? -0.06 : -0.05;
-      geo.lateral = 0.01;
-    }
-    build_regions(m, s.constants, s.pairs, s.regions);
-    EXPECT_EQ(s.regions.count, 1);
-    s.rows.clear(Mat6::Identity(), Vec6::Zero());
-    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
-    std::set<int> pairs;
-    for (int r = 0; r < s.rows.problem.row_count; ++r) pairs.insert(s.rows.meta[r].pair);
-    return pairs;
+    return pairs_of(contact_rows_of(m, s, {{0, 1, 0.06, Vec3(0, 0, 1)},  // tool leaf 1, deeper, up
+                                           {1, 0, 0.05, Vec3(0.1, 0.0, 0.995).normalized(), 0.01, carried}}));
   };
   EXPECT_EQ(elected(false), (std::set<int>{0}));
   EXPECT_EQ(elected(true), (std::set<int>{1}));
@@ -383,32 +389,12 @@ TEST(ContactRows, ADirectionPastTheDepthSlackFadesOut) {
   const double k = 0.5;  // N/mm
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
-  const SphereTree& tree = m.objects[0].tree;
-  // Depth (mm) and unit normal of each pair, all of the tip's leaf, on patches, three directions.
-  const std::vector<std::pair<double, Vec3>> given = {
-      {0.20, Vec3(0.0, -0.6, 0.8)},   // 0.1 mm past the slack: no row
-      {0.125, Vec3(0.6, 0.0, 0.8)},   // 0.025 mm past it: half the stiffness
-      {0.05, Vec3(0.0, 0.0, 1.0)}};   // the shallowest: the tissue's stiffness
-  s.pairs.count = 0;
-  s.pairs.at = probe_at(Vec3(0, 0, 0));
-  for (std::size_t i = 0; i < given.size(); ++i) {
-    s.pairs.refs[s.pairs.count] = PairRef{tree.leaf_nodes[i], 0, 0, false};
-    PairGeometry& geo = s.pairs.geometry[s.pairs.count++];
-    geo.normal = given[i].second;
-    geo.lever = Vec3::Zero();
-    geo.wall = geo.internal = false;
-    geo.gap = -given[i].first;
-    geo.lateral = 0.01;
-  }
-  build_regions(m, s.constants, s.pairs, s.regions);
-  ASSERT_EQ(s.regions.count, 1);
-  s.rows.clear(Mat6::Identity(), Vec6::Zero());
-  build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
-  std::map<int, double> compliance;
-  for (int r = 0; r < s.rows.problem.row_count; ++r) compliance[s.rows.meta[r].pair] = s.rows.problem.rows[r].compliance;
-  EXPECT_EQ(compliance.size(), 2u);
-  EXPECT_EQ(compliance.count(0), 0u);
+  // All of the tip's leaf, on patches, three directions.
+  std::map<int, double> compliance = contact_rows_of(m, state.impl(),
+                                                     {{0, 0, 0.20, Vec3(0.0, -0.6, 0.8)},    // past the fade
+                                                      {1, 0, 0.125, Vec3(0.6, 0.0, 0.8)},    // half way
+                                                      {2, 0, 0.05, Vec3(0.0, 0.0, 1.0)}});  // the shallowest
+  EXPECT_EQ(pairs_of(compliance), (std::set<int>{1, 2}));
   EXPECT_NEAR(compliance[1], 2.0 / k, 1e-9);
   EXPECT_NEAR(compliance[2], 1.0 / k, 1e-9);
 }
@@ -423,26 +409,11 @@ TEST(ContactRows, ACarriedRigidPairOfACappedLeafKeepsItsRow) {
   const SphereTree& tree = m.objects[0].tree;
   const Vec3 tilted = Vec3(0.1, 0.0, 0.995).normalized();  // 6 degrees from the deeper pair's normal
   ASSERT_GT(tilted.z(), kRigidNormalCos);
+  const double sphere = std::numeric_limits<double>::infinity();  // measured sphere against sphere
   const auto build = [&](bool carried) {
-    s.pairs.count = 2;
-    s.pairs.at = probe_at(Vec3(0, 0, 0));
-    s.pairs.refs[0] = PairRef{tree.leaf_nodes[0], 0, 0, false};
-    s.pairs.refs[1] = PairRef{tree.leaf_nodes[1], 0, 0, false};
-    s.pairs.refs[1].carried = carried;
-    for (int i = 0; i < 2; ++i) {
-      PairGeometry& geo = s.pairs.geometry[i];
-      geo.normal = i == 0 ? Vec3(0, 0, 1) : tilted;
-      geo.lever = Vec3::Zero();
-      geo.wall = geo.internal = false;
-      geo.gap = i == 0 ? -0.004 : -0.002;
-      geo.lateral = std::numeric_limits<double>::infinity();
-    }
-    build_regions(m, s.constants, s.pairs, s.regions);
-    s.rows.clear(Mat6::Identity(), Vec6::Zero());
-    build_contact_rows(m, m.defaults, s.pairs, s.regions, false, s.contact_rows, s.rows);
-    std::set<int> pairs;
-    for (int r = 0; r < s.rows.problem.row_count; ++r) pairs.insert(s.rows.meta[r].pair);
-    return pairs;
+    const std::vector<GivenPair> given = {{0, 0, 0.004, Vec3::UnitZ(), sphere},
+                                          {1, 0, 0.002, tilted, sphere, carried}};
+    return pairs_of(contact_rows_of(m, s, given));
   };
   EXPECT_EQ(build(false), (std::set<int>{0}));
   EXPECT_EQ(build(true), (std::set<int>{0, 1}));
