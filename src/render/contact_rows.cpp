@@ -174,7 +174,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
 
   // Pass 3, hysteresis (CarriedPairs): a compliant pair measured on a surface patch that bore load
   // at the last solve keeps a row while it overlaps, unless its region already has a row of a
-  // similar direction or the tool has sunk past it (pass 2's depth rule).
+  // similar direction or the tool has sunk past it (pass 2's depth rule, which fades it).
   const int first_row = rows.problem.row_count - added;
   for (int i = 0; i < regions.pairs; ++i) {
     const PairGeometry& geo = pairs.geometry[i];
@@ -189,7 +189,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
       covered = pairs.geometry[meta.pair].normal.dot(geo.normal) > kCompliantNormalCos;
       shallowest = std::min(shallowest, std::max(0.0, -pairs.geometry[meta.pair].gap));
     }
-    // Pass 2's depth rule: a direction the tool sinks past lets go.
+    // Pass 2's depth rule: a direction the tool sinks past lets go, gradually.
     const double fade = compliant_depth_fade(-geo.gap, shallowest);
     if (!covered && fade > 0.0 && !add_row(i, r, nullptr, fade)) return added;
   }

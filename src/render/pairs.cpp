@@ -269,7 +269,7 @@ void mark_carried_pairs(const Model& m, const ModelConstants& k, const CarriedPa
                         PairSet& pairs) {
   for (int c = 0; c < carried.count; ++c) {
     const PairRef& ref = carried.refs[c];
-    if (((mask >> ref.object) & 1u) == 0) continue;
+    if (!in_mask(mask, ref.object)) continue;
     const int j = list_pair(m, k, ref, pairs);
     if (j >= 0) pairs.refs[j].carried = true;
   }

@@ -31,7 +31,7 @@ struct StateImpl {
   uint64_t steps = 0;
   double last_motion = 0.0;    ///< mm, tool-origin translation of the graphic tool in the last cycle
   double last_rotation = 0.0;  ///< rad, its rotation in the last cycle
-  detail::CarriedPairs carried;  ///< compliant pairs that bore load at the last solve
+  detail::CarriedPairs carried;  ///< pairs that bore load at the last solve (CarriedPairs)
 
   // Model-derived constants.
   detail::ModelConstants constants;

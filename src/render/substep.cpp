@@ -2,8 +2,9 @@
 // stages.hpp in order:
 //   1. collision: every sphere pair the tool can reach while moving by at most the sub-step's bound,
 //      measured at g0;
-//   2. one solve: regions, anchors, rows (contact, friction, tunnel), the QP; the pairs whose
-//      compliant rows bore load are carried to the next solve (hysteresis, CarriedPairs);
+//   2. one solve: regions, anchors, rows (contact, friction, tunnel), the QP; the pairs whose rows
+//      bore load (compliant, or rigid of a capped tool leaf) are carried to the next solve
+//      (hysteresis, CarriedPairs);
 //   3. slip: the friction cone at the final solve (the motion ends in this sub-step); slipped or
 //      released anchors change the rows, so they are solved once more;
 //   4. re-check collision at the solution: a new rigid overlap brings its pair in and the sub-step is
