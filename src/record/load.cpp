@@ -23,6 +23,23 @@ namespace fs = std::filesystem;
 using record::Database;
 using record::Statement;
 
+// SQLite's last message on `db`, and what to do when it says the file is damaged: the usual cause is
+// a `.db` copied without its `-wal` file while the recorder was copying the WAL into it (a checkpoint;
+// docs/records.md). The original, read with its `-wal` beside it, is whole.
+std::string reason(const Database& db) {
+  std::string text = db.message();
+  if ((sqlite3_errcode(db.get()) & 0xff) == SQLITE_CORRUPT)
+    text +=
+        "; the file is damaged: a .db copied without its -wal file while it was being recorded can "
+        "be, so copy the two together or read the original";
+  return text;
+}
+
+// Throws "file: what: reason" (see reason()).
+[[noreturn]] void fail_reading(const Database& db, const std::string& what) {
+  throw Error(db.file() + ": " + what + ": " + reason(db));
+}
+
 // Opens a recording and checks it is one this code reads. Read-write when possible so SQLite can
 // recover the WAL of a recorder that was killed (nothing is changed: recovery rebuilds the WAL
 // index); read-only otherwise.
@@ -43,7 +60,7 @@ std::unique_ptr<Database> open_recording(const fs::path& file, int& version) {
   try {
     check = std::make_unique<Statement>(*db, "SELECT version, application FROM schema_version");
   } catch (const Error&) {
-    throw Error(file.string() + ": not a cariesim recording (" + db->message() + ")");
+    throw Error(file.string() + ": not a cariesim recording (" + reason(*db) + ")");
   }
   if (check->step() != SQLITE_ROW || check->text(1) != "cariesim")
     throw Error(file.string() + ": not a cariesim recording (schema_version has no cariesim row)");
@@ -208,18 +225,14 @@ Recording load_recording(const fs::path& file) {
     Statement samples(*db, record::select_samples_sql());
     int rc = SQLITE_ROW;
     while ((rc = samples.step()) == SQLITE_ROW) out.samples.push_back(record::read_sample(samples));
-    if (rc != SQLITE_DONE) db->fail("cannot read the samples");
+    if (rc != SQLITE_DONE) fail_reading(*db, "cannot read the samples");
     Statement events(*db, kSelectEvents);
     while ((rc = events.step()) == SQLITE_ROW) out.events.push_back(read_event(events));
-    if (rc != SQLITE_DONE) db->fail("cannot read the events");
+    if (rc != SQLITE_DONE) fail_reading(*db, "cannot read the events");
   }
   db->exec("COMMIT", "cannot end reading");
   return out;
 }
-
-namespace {
-
-}  // namespace
 
 // Everything is written into a staging folder beside `dir` and moved into `dir` only when complete,
 // so a failed export leaves an earlier one in `dir` as it was.
@@ -291,7 +304,7 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
         ++summary.trajectory_rows;
       }
     }
-    if (rc != SQLITE_DONE) db->fail("cannot read the samples");
+    if (rc != SQLITE_DONE) fail_reading(*db, "cannot read the samples");
     samples.close();
     trajectory.close();
     summary.files.push_back(dir / "samples.csv");
@@ -321,7 +334,7 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
       csv.end_row();
       ++summary.events;
     }
-    if (rc != SQLITE_DONE) db->fail("cannot read the events");
+    if (rc != SQLITE_DONE) fail_reading(*db, "cannot read the events");
     csv.close();
     summary.files.push_back(dir / "events.csv");
   }

@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <filesystem>
+#include <fstream>
+#include <string>
+
 #include "cariesim/common/error.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "record/record_support.hpp"
@@ -54,6 +58,35 @@ TEST(LoadRecording, MissingSessionRowIsReported) {
   }
   run_sql(file, "DELETE FROM session;");
   EXPECT_THAT(load_error(file), HasSubstr("session row is missing"));
+}
+
+// A damaged file (here a samples page overwritten, as a .db copied without its -wal in the middle of
+// a checkpoint can be) is refused naming the file, with what to do about it.
+TEST(LoadRecording, ADamagedFileSaysHowToReadTheRecording) {
+  test::ScratchDir dir("load_damaged");
+  const auto file = dir / "damaged.db";
+  constexpr double kRate = 1000.0;  // Hz
+  {
+    Recorder recorder(file, test::synthetic_session(kRate));
+    recorder.start();
+    for (std::size_t i = 0; i < 2000; ++i)
+      ASSERT_TRUE(recorder.queue().push(test::synthetic_sample(i, kRate))) << "sample " << i;
+    recorder.stop();
+  }
+  ASSERT_EQ(load_recording(file).samples.size(), 2000u);
+  const auto bytes = std::filesystem::file_size(file);
+  constexpr std::size_t kPage = 4096;  // bytes, SQLite's default page size
+  ASSERT_GT(bytes, 8 * kPage);
+  {
+    std::fstream out(file, std::ios::in | std::ios::out | std::ios::binary);
+    out.seekp(static_cast<std::streamoff>((bytes / kPage / 2) * kPage));
+    const std::string garbage(kPage, '\xff');
+    out.write(garbage.data(), static_cast<std::streamsize>(garbage.size()));
+  }
+  const std::string error = load_error(file);
+  EXPECT_THAT(error, HasSubstr(file.string()));
+  EXPECT_THAT(error, HasSubstr("malformed"));
+  EXPECT_THAT(error, HasSubstr("copied without its -wal"));
 }
 
 }  // namespace
