@@ -1,5 +1,6 @@
 #include "cariesim/collision/collide.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -33,17 +34,22 @@ struct Query {
   const Vec3* tool_centers;        // world
   const double* tool_radii;        // inflated
   const double* leaf_margin;       // per tool leaf
+  const Vec3* cap_a;               // per tool node, world (PlacedTool::capsule_a)
+  const Vec3* cap_d;               // per tool node, world
+  const double* cap_inv_dd;        // per tool node, 1/mm²
+  const double* cap_r;             // per tool node, inflated (mm)
+  const uint8_t* has_cap;          // per tool node
   const SphereNode* object_nodes;  // world
   uint16_t object;
-  uint32_t skip_flags;             // object leaves with any of these flags are not reported
-  PlacedTool::LeafHits* hits;      // per tool leaf: pairs reported for this object (stamped)
-  PlacedTool::LeafHits* caps;      // per tool node: leaves below it capped for this object (stamped)
-  const uint32_t* parent;          // per tool node
-  const uint32_t* leaves_below;    // per tool node
-  uint32_t stamp;                  // this object's traversal
-  uint32_t max_per_leaf;           // pairs a tool leaf may report for this object
-  const uint32_t* leaf_quota;      // per tool leaf, lower quotas (null: max_per_leaf for all)
-  WorkBudget* budget;              // node pairs the traversal may visit, or null
+  uint32_t skip_flags;           // object leaves with any of these flags are not reported
+  PlacedTool::LeafHits* hits;    // per tool leaf: pairs reported for this object (stamped)
+  PlacedTool::LeafHits* caps;    // per tool node: leaves below it capped for this object (stamped)
+  const uint32_t* parent;        // per tool node
+  const uint32_t* leaves_below;  // per tool node
+  uint32_t stamp;                // this object's traversal
+  uint32_t max_per_leaf;         // pairs a tool leaf may report for this object
+  const uint32_t* leaf_quota;    // per tool leaf, lower quotas (null: max_per_leaf for all)
+  WorkBudget* budget;            // node pairs the traversal may visit, or null
 };
 
 // Pairs tool leaf `leaf` may report for the object being traversed.
@@ -92,6 +98,19 @@ inline bool overlaps(const Query& q, uint32_t t, uint32_t o, double d2) {
   return d2 < reach * reach;
 }
 inline bool overlaps(const Query& q, uint32_t t, uint32_t o) { return overlaps(q, t, o, distance2(q, t, o)); }
+
+// True unless tool node t has a capsule (an inner node whose leaves lie along a line) that misses
+// object node o, within the pruning slack. Both bounds hold every leaf below t (inflated), so a pair
+// that misses either has no leaf pair within the margins.
+inline bool capsule_overlaps(const Query& q, uint32_t t, uint32_t o) {
+  if (q.has_cap[t] == 0) return true;
+  const SphereNode& on = q.object_nodes[o];
+  const Vec3 w = on.center.cast<double>() - q.cap_a[t];
+  const Vec3& d = q.cap_d[t];
+  const double s = std::clamp(w.dot(d) * q.cap_inv_dd[t], 0.0, 1.0);
+  const double reach = q.cap_r[t] + static_cast<double>(on.radius) + kPruneSlack;
+  return (w - s * d).squaredNorm() < reach * reach;
+}
 
 // A node pair with its squared centre distance (mm²), for ordering siblings.
 struct DistPair {
@@ -143,7 +162,7 @@ inline void emit(const Query& q, uint32_t t, uint32_t o, ContactSet& out) {
 // node with the larger sphere (a leaf is never split), keep the children that still overlap, and
 // test leaf pairs exactly.
 void traverse(const Query& q, ContactSet& out) {
-  if (!overlaps(q, 0, 0)) return;
+  if (!overlaps(q, 0, 0) || !capsule_overlaps(q, 0, 0)) return;
   std::array<NodePair, kStackSize> stack;
   int top = 0;
   stack[top++] = {0, 0};
@@ -181,7 +200,7 @@ void traverse(const Query& q, ContactSet& out) {
       // A tool node whose leaves are all capped for this object needs no more tests.
       if (split_tool && all_capped(q, t)) continue;
       const double d2 = distance2(q, t, o);
-      if (!overlaps(q, t, o, d2)) continue;
+      if (!overlaps(q, t, o, d2) || !capsule_overlaps(q, t, o)) continue;
       if (kid_count < static_cast<int>(kids.size())) {
         kids[kid_count++] = {d2, t, o};
       } else if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
@@ -195,7 +214,8 @@ void traverse(const Query& q, ContactSet& out) {
     sort_far_first(kids.data(), kid_count);
     for (int k = kid_count; k-- > 0;) {
       const DistPair& kid = kids[k];
-      if (q.tool_nodes[kid.tool].is_leaf() && q.object_nodes[kid.object].is_leaf()) emit(q, kid.tool, kid.object, out);
+      if (q.tool_nodes[kid.tool].is_leaf() && q.object_nodes[kid.object].is_leaf())
+        emit(q, kid.tool, kid.object, out);
     }
     for (int k = 0; k < kid_count; ++k) {
       const DistPair& kid = kids[k];
@@ -269,6 +289,87 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
     if (n.is_leaf()) leaves_below_[i] = 1;
     for (uint32_t c = n.first; c < n.first + n.count; ++c) leaves_below_[i] += leaves_below_[c];
   }
+  fit_capsules();
+}
+
+namespace {
+// A capsule is kept where its radius is below this fraction of the node's sphere radius.
+constexpr double kCapsuleGain = 0.8;
+}  // namespace
+
+void PlacedTool::fit_capsules() {
+  const std::vector<SphereNode>& nodes = tool_->nodes;
+  const std::size_t n = nodes.size();
+  tool_capsule_a_.assign(n, Vec3::Zero());
+  tool_capsule_d_.assign(n, Vec3::Zero());
+  tool_capsule_radius_.assign(n, 0.0);
+  capsule_a_.assign(n, Vec3::Zero());
+  capsule_d_.assign(n, Vec3::Zero());
+  capsule_inv_dd_.assign(n, 0.0);
+  capsule_radii_.assign(n, 0.0);
+  has_capsule_.assign(n, 0);
+  std::vector<uint32_t> leaves;
+  std::vector<uint32_t> pending;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (nodes[i].is_leaf()) continue;
+    // The leaves below node i.
+    leaves.clear();
+    pending.assign(1, static_cast<uint32_t>(i));
+    while (!pending.empty()) {
+      const uint32_t k = pending.back();
+      pending.pop_back();
+      if (nodes[k].is_leaf()) {
+        leaves.push_back(k);
+        continue;
+      }
+      for (uint32_t c = nodes[k].first; c < nodes[k].first + nodes[k].count; ++c) pending.push_back(c);
+    }
+    // Their centres' principal axis through their mean; the segment spans their projections, so each
+    // centre's distance to it is its distance to the axis.
+    Vec3 mean = Vec3::Zero();
+    for (uint32_t k : leaves) mean += nodes[k].center.cast<double>();
+    mean /= static_cast<double>(leaves.size());
+    Mat3 cov = Mat3::Zero();
+    for (uint32_t k : leaves) {
+      const Vec3 c = nodes[k].center.cast<double>() - mean;
+      cov += c * c.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Mat3> eigen(cov);
+    const Vec3 axis = eigen.eigenvectors().col(2).normalized();  // largest eigenvalue last
+    if (!axis.allFinite()) continue;
+    double t_min = std::numeric_limits<double>::infinity();
+    double t_max = -t_min;
+    for (uint32_t k : leaves) {
+      const double t = axis.dot(nodes[k].center.cast<double>() - mean);
+      t_min = std::min(t_min, t);
+      t_max = std::max(t_max, t);
+    }
+    double radius = 0.0;  // mm
+    for (uint32_t k : leaves) {
+      const Vec3 c = nodes[k].center.cast<double>() - mean;
+      const double off_axis = (c - axis.dot(c) * axis).norm();
+      radius = std::max(radius, off_axis + static_cast<double>(nodes[k].radius));
+    }
+    if (!(radius < kCapsuleGain * static_cast<double>(nodes[i].radius))) continue;
+    has_capsule_[i] = 1;
+    tool_capsule_a_[i] = mean + t_min * axis;
+    tool_capsule_d_[i] = (t_max - t_min) * axis;
+    const double dd = tool_capsule_d_[i].squaredNorm();
+    capsule_inv_dd_[i] = dd > 1e-18 ? 1.0 / dd : 0.0;
+    tool_capsule_radius_[i] = radius;
+  }
+}
+
+void PlacedTool::place_capsules() {
+  const Mat3 rot = pose_.q.toRotationMatrix();
+  const std::vector<SphereNode>& nodes = tool_->nodes;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (has_capsule_[i] == 0) continue;
+    capsule_a_[i] = pose_.p + rot * tool_capsule_a_[i];
+    capsule_d_[i] = rot * tool_capsule_d_[i];
+    // Grown like the node's sphere: by the largest margin of the leaves below.
+    capsule_radii_[i] = tool_capsule_radius_[i] + (radii_[i] - static_cast<double>(nodes[i].radius));
+  }
 }
 
 uint32_t PlacedTool::next_hit_stamp() const {
@@ -290,6 +391,7 @@ void PlacedTool::place(const Pose& pose, double margin) {
   std::fill(leaf_margin_.begin(), leaf_margin_.end(), m);
   const std::vector<SphereNode>& nodes = tool_->nodes;
   for (std::size_t i = 0; i < nodes.size(); ++i) radii_[i] = static_cast<double>(nodes[i].radius) + m;
+  place_capsules();
 }
 
 void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
@@ -317,6 +419,7 @@ void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
     }
     radii_[i] = static_cast<double>(n.radius) + inflation;
   }
+  place_capsules();
 }
 
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
@@ -329,6 +432,11 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   q.tool_centers = tool.centers().data();
   q.tool_radii = tool.radii().data();
   q.leaf_margin = tool.leaf_margins().data();
+  q.cap_a = tool.capsule_a().data();
+  q.cap_d = tool.capsule_d().data();
+  q.cap_inv_dd = tool.capsule_inv_dd().data();
+  q.cap_r = tool.capsule_radii().data();
+  q.has_cap = tool.has_capsule().data();
   q.hits = tool.leaf_hits().data();
   q.caps = tool.node_caps().data();
   q.parent = tool.parents().data();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -428,8 +429,8 @@ TEST(Collide, AnyWithinAgreesWithClosestAndStopsEarly) {
     const SphereNode& t = tool.nodes[tool.leaf_nodes[any.tool_leaf]];
     const SphereNode& o = objects[any.object].tree.nodes[any.object_node];
     ASSERT_TRUE(o.is_leaf());
-    EXPECT_NEAR((placed.pose().transform(t.center.cast<double>()) - o.center.cast<double>()).norm() - t.radius -
-                    o.radius,
+    EXPECT_NEAR((placed.pose().transform(t.center.cast<double>()) - o.center.cast<double>()).norm() -
+                    t.radius - o.radius,
                 any.gap, 1e-9);
   }
   EXPECT_GT(near, 10);
@@ -461,7 +462,8 @@ TEST(Collide, WorkBudgetStopsTheQueries) {
   WorkBudget plenty;
   EXPECT_TRUE(closest(placed, objects, kAllObjects, 0.0, &plenty).complete);
   WorkBudget spent{0, 0};
-  EXPECT_EQ(sphere_closest(Vec3::Zero(), 0.2, objects[0], 1.0, &spent), -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(sphere_closest(Vec3::Zero(), 0.2, objects[0], 1.0, &spent),
+            -std::numeric_limits<double>::infinity());
 }
 
 // Coincident centres and zero radii give finite contacts; the normal falls back to the tool axis.
@@ -543,6 +545,95 @@ TEST(PlacedTool, InflatesLeavesAndTheirAncestors) {
   EXPECT_NEAR(placed.radii()[tool.leaf_nodes[17]], tool.nodes[tool.leaf_nodes[17]].radius + 0.5, 1e-7);
   EXPECT_NEAR(placed.radii()[tool.leaf_nodes[3]], tool.nodes[tool.leaf_nodes[3]].radius, 1e-7);
   EXPECT_GT(placed.radii()[0], tool.nodes[0].radius + 0.4);
+}
+
+// Leaves of radius `r` (mm) along a wire: a straight shank from z = 0 to z = `length` (mm), then, with
+// `hook`, a quarter circle of radius 3 mm bending toward +x (an explorer's shape).
+std::vector<LeafSphere> wire_leaves(double length, float r, bool hook) {
+  std::vector<LeafSphere> leaves;
+  for (double z = 0.0; z <= length + 1e-9; z += 0.1)
+    leaves.push_back({Vec3f(0, 0, static_cast<float>(z)), r, 0});
+  for (int k = 1; hook && k <= 40; ++k) {
+    const double a = 0.5 * M_PI * k / 40.0;
+    leaves.push_back({Vec3f(static_cast<float>(3.0 - 3.0 * std::cos(a)), 0.0f,
+                            static_cast<float>(length + 3.0 * std::sin(a))),
+                      r, 0});
+  }
+  return leaves;
+}
+
+// Issue #11: inner nodes of a tool whose leaves lie along a line get a capsule that holds every leaf
+// below (inflated like the node's sphere); a cluster that the wire's spheres reach but its capsules do
+// not costs no node pair at all (without capsules the descent visits the shank's nodes), and on a
+// hooked wire the pairs found are still exactly the brute-force ones.
+TEST(PlacedTool, CapsulesHoldTheLeavesAndPruneWhatTheSpheresCannot) {
+  const SphereTree straight = build_hierarchy(wire_leaves(20.0, 0.2f, false), 4);
+  PlacedTool placed(straight);
+  std::size_t capsules = 0;
+  for (uint8_t has : placed.has_capsule()) capsules += has;
+  EXPECT_GT(capsules, 10u) << "a straight wire's inner nodes all lie along a line";
+  EXPECT_EQ(placed.has_capsule()[0], 1) << "the root of a straight wire";
+
+  // A small cluster of leaves 3 mm beside the middle of the shank: inside the root's sphere (radius
+  // about 10 mm), 2.4 mm from the shank's leaves.
+  std::vector<LeafSphere> plate;
+  for (float y = -0.2f; y <= 0.2f; y += 0.1f)
+    for (float z = 9.8f; z <= 10.2f; z += 0.1f) plate.push_back({Vec3f(3.0f, y, z), 0.1f, 1});
+  std::vector<CollisionObject> objects{make_object(plate, 4, "cluster")};
+  const std::array<double, 2> margins{0.0, 0.5};  // mm
+  for (double margin : margins) {
+    placed.place(Pose{}, margin);
+    ContactSet set(4096);
+    WorkBudget budget;
+    collide(placed, objects, kAllObjects, set, std::numeric_limits<uint32_t>::max(), &budget);
+    EXPECT_EQ(set.size(), 0u);
+    EXPECT_EQ(budget.used, 0) << "margin " << margin << ": the root's capsule misses the plate";
+  }
+
+  // Hooked wire, random poses and margins: every capsule holds its inflated leaves, and the pairs
+  // are the brute-force ones.
+  const SphereTree hooked = build_hierarchy(wire_leaves(12.0, 0.15f, true), 4);
+  PlacedTool hook(hooked);
+  std::mt19937 rng(11);
+  std::vector<CollisionObject> teeth;
+  teeth.push_back(make_object(random_leaves(4000, rng, Vec3f(0, 0, 6), 6.0f, 0.05f, 0.3f), 4, "a"));
+  teeth.push_back(make_object(random_leaves(2000, rng, Vec3f(3, 0, 12), 3.0f, 0.02f, 0.2f), 8, "b"));
+  std::uniform_real_distribution<double> per_leaf(0.0, 0.3);
+  ContactSet set(1 << 16);
+  std::size_t total = 0;
+  for (int trial = 0; trial < 10; ++trial) {
+    const Pose pose = random_pose(rng, 3.0);
+    std::vector<double> leaf_margins(hooked.leaf_count());
+    for (double& m : leaf_margins) m = trial % 2 == 0 ? 0.1 : per_leaf(rng);
+    hook.place(pose, leaf_margins);
+    for (std::size_t i = 0; i < hooked.nodes.size(); ++i) {
+      if (hook.has_capsule()[i] == 0) continue;
+      std::vector<uint32_t> stack{static_cast<uint32_t>(i)};
+      while (!stack.empty()) {
+        const uint32_t k = stack.back();
+        stack.pop_back();
+        const SphereNode& n = hooked.nodes[k];
+        if (!n.is_leaf()) {
+          for (uint32_t c = n.first; c < n.first + n.count; ++c) stack.push_back(c);
+          continue;
+        }
+        const Vec3 w = hook.centers()[k] - hook.capsule_a()[i];
+        const Vec3& d = hook.capsule_d()[i];
+        const double s = std::clamp(w.dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
+        EXPECT_LE((w - s * d).norm() + n.radius + leaf_margins[n.leaf], hook.capsule_radii()[i] + 1e-9)
+            << "node " << i << " leaf " << n.leaf;
+      }
+    }
+    set.clear();
+    collide(hook, teeth, kAllObjects, set);
+    ASSERT_FALSE(set.overflow());
+    const std::map<PairKey, Contact> got = as_map(set);
+    const std::map<PairKey, BrutePair> want = brute_force(hooked, pose, leaf_margins, teeth, kAllObjects);
+    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
+    for (const auto& [key, w] : want) EXPECT_TRUE(got.count(key) == 1) << "missing pair in trial " << trial;
+    total += got.size();
+  }
+  EXPECT_GT(total, 200u) << "the hooked wire should touch the random teeth";
 }
 
 TEST(PlacedTool, RejectsATreeWithChildrenBeforeTheirParent) {

@@ -103,6 +103,15 @@ class PlacedTool {
   [[nodiscard]] std::span<const Vec3> centers() const { return centers_; }             ///< world, per node
   [[nodiscard]] std::span<const double> radii() const { return radii_; }               ///< per node, inflated
   [[nodiscard]] std::span<const double> leaf_margins() const { return leaf_margin_; }  ///< mm, per leaf
+  /// A second bound for inner nodes whose leaves lie along a line (the explorer's shank and hook): a
+  /// capsule, the segment from `a` to `a + d` (world) grown by `capsule_radii()` (mm, inflated like
+  /// the node's sphere), holding every leaf below. Nodes where it is not tighter than the sphere have
+  /// `has_capsule()` 0. collide() prunes a pair that misses either bound.
+  [[nodiscard]] std::span<const Vec3> capsule_a() const { return capsule_a_; }  ///< world, per node
+  [[nodiscard]] std::span<const Vec3> capsule_d() const { return capsule_d_; }  ///< world, per node
+  [[nodiscard]] std::span<const double> capsule_inv_dd() const { return capsule_inv_dd_; }  ///< 1/mm²
+  [[nodiscard]] std::span<const double> capsule_radii() const { return capsule_radii_; }    ///< mm, inflated
+  [[nodiscard]] std::span<const uint8_t> has_capsule() const { return has_capsule_; }
   /// Per-leaf quotas of pairs per object for collide() (each capped by its `max_per_leaf`); an empty
   /// table (the default) leaves `max_per_leaf` alone. Size = tool leaf count.
   void set_leaf_quota(std::span<const uint32_t> quota) { leaf_quota_.assign(quota.begin(), quota.end()); }
@@ -127,13 +136,25 @@ class PlacedTool {
   const SphereTree* tool_;
   Pose pose_;
   std::vector<Vec3> centers_;
-  std::vector<double> radii_;        // inflated radii used for pruning and the pair test
-  std::vector<double> leaf_margin_;  // per leaf
-  std::vector<uint32_t> leaf_quota_;  // per leaf, or empty
+  std::vector<double> radii_;                // inflated radii used for pruning and the pair test
+  std::vector<double> leaf_margin_;          // per leaf
+  std::vector<uint32_t> leaf_quota_;         // per leaf, or empty
   mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
   mutable std::vector<LeafHits> node_caps_;  // collide()'s per-node capped-leaf counters (scratch)
   std::vector<uint32_t> parent_;             // per node
   std::vector<uint32_t> leaves_below_;       // per node
+  // Capsule bounds (see capsule_a()): tool-frame segment start, direction and true radius per node,
+  // and their world copies (the radius inflated) made by place().
+  std::vector<Vec3> tool_capsule_a_;
+  std::vector<Vec3> tool_capsule_d_;
+  std::vector<double> tool_capsule_radius_;  // mm
+  std::vector<Vec3> capsule_a_;
+  std::vector<Vec3> capsule_d_;
+  std::vector<double> capsule_inv_dd_;  // 1/mm², 0 for a point
+  std::vector<double> capsule_radii_;   // mm
+  std::vector<uint8_t> has_capsule_;
+  void fit_capsules();
+  void place_capsules();
   mutable uint32_t hit_stamp_ = 0;
 };
 
@@ -154,7 +175,7 @@ inline constexpr uint32_t kStepPairsPerFarToolLeaf = 16;
 /// ClosestPair::complete is false; sphere_closest(): -infinity).
 struct WorkBudget {
   int64_t left = std::numeric_limits<int64_t>::max();  ///< work units
-  int64_t used = 0;                                     ///< work units spent so far
+  int64_t used = 0;                                    ///< work units spent so far
   /// Takes one unit (a node pair); false (and spent from then on) when none is left.
   bool take() { return charge(1); }
   /// Takes n units; when fewer are left, takes what is left, is spent from then on and returns false.
