@@ -102,7 +102,7 @@ inline bool overlaps(const Query& q, uint32_t t, uint32_t o) { return overlaps(q
 // True unless tool node t has a capsule (an inner node whose leaves lie along a line) that misses
 // object node o, within the pruning slack. Both bounds hold every leaf below t (inflated), so a pair
 // that misses either has no leaf pair within the margins.
-inline bool capsule_overlaps(const Query& q, uint32_t t, uint32_t o) {
+[[gnu::always_inline]] inline bool capsule_overlaps(const Query& q, uint32_t t, uint32_t o) {
   if (q.has_cap[t] == 0) return true;
   const SphereNode& on = q.object_nodes[o];
   const Vec3 w = on.center.cast<double>() - q.cap_a[t];
@@ -245,8 +245,7 @@ inline double gap_bound(const PlacedTool& tool, const SphereNode* tool_nodes, co
 }
 
 // Moves every tool node centre into the world: c_world = p + R c_tool.
-void place_centers(const SphereTree& tool, const Pose& pose, std::vector<Vec3>& centers) {
-  const Mat3 rot = pose.q.toRotationMatrix();
+void place_centers(const SphereTree& tool, const Pose& pose, const Mat3& rot, std::vector<Vec3>& centers) {
   const SphereNode* nodes = tool.nodes.data();
   Vec3* out = centers.data();
   const std::size_t count = tool.nodes.size();
@@ -308,6 +307,7 @@ void PlacedTool::fit_capsules() {
   capsule_inv_dd_.assign(n, 0.0);
   capsule_radii_.assign(n, 0.0);
   has_capsule_.assign(n, 0);
+  capsule_nodes_.clear();
   std::vector<uint32_t> leaves;
   std::vector<uint32_t> pending;
   for (std::size_t i = 0; i < n; ++i) {
@@ -352,6 +352,7 @@ void PlacedTool::fit_capsules() {
     }
     if (!(radius < kCapsuleGain * static_cast<double>(nodes[i].radius))) continue;
     has_capsule_[i] = 1;
+    capsule_nodes_.push_back(static_cast<uint32_t>(i));
     tool_capsule_a_[i] = mean + t_min * axis;
     tool_capsule_d_[i] = (t_max - t_min) * axis;
     const double dd = tool_capsule_d_[i].squaredNorm();
@@ -360,11 +361,9 @@ void PlacedTool::fit_capsules() {
   }
 }
 
-void PlacedTool::place_capsules() {
-  const Mat3 rot = pose_.q.toRotationMatrix();
+void PlacedTool::place_capsules(const Mat3& rot) {
   const std::vector<SphereNode>& nodes = tool_->nodes;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (has_capsule_[i] == 0) continue;
+  for (const uint32_t i : capsule_nodes_) {
     capsule_a_[i] = pose_.p + rot * tool_capsule_a_[i];
     capsule_d_[i] = rot * tool_capsule_d_[i];
     // Grown like the node's sphere: by the largest margin of the leaves below.
@@ -384,20 +383,22 @@ uint32_t PlacedTool::next_hit_stamp() const {
 
 void PlacedTool::place(const Pose& pose, double margin) {
   pose_ = pose;
-  place_centers(*tool_, pose, centers_);
+  const Mat3 rot = pose.q.toRotationMatrix();
+  place_centers(*tool_, pose, rot, centers_);
   // One margin for every leaf (negative or non-finite counts as zero): every node, leaf or inner,
   // grows by exactly that much.
   const double m = std::isfinite(margin) ? std::max(margin, 0.0) : 0.0;
   std::fill(leaf_margin_.begin(), leaf_margin_.end(), m);
   const std::vector<SphereNode>& nodes = tool_->nodes;
   for (std::size_t i = 0; i < nodes.size(); ++i) radii_[i] = static_cast<double>(nodes[i].radius) + m;
-  place_capsules();
+  place_capsules(rot);
 }
 
 void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
   assert((leaf_margin.empty() || leaf_margin.size() == leaf_margin_.size()) && "one margin per tool leaf");
   pose_ = pose;
-  place_centers(*tool_, pose, centers_);
+  const Mat3 rot = pose.q.toRotationMatrix();
+  place_centers(*tool_, pose, rot, centers_);
   // Per-leaf margins (an empty table keeps the ones already set); bad values count as zero.
   const std::size_t given = std::min(leaf_margin.size(), leaf_margin_.size());
   for (std::size_t i = 0; i < given; ++i) {
@@ -419,7 +420,7 @@ void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
     }
     radii_[i] = static_cast<double>(n.radius) + inflation;
   }
-  place_capsules();
+  place_capsules(rot);
 }
 
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,

@@ -153,8 +153,9 @@ class PlacedTool {
   std::vector<double> capsule_inv_dd_;  // 1/mm², 0 for a point
   std::vector<double> capsule_radii_;   // mm
   std::vector<uint8_t> has_capsule_;
+  std::vector<uint32_t> capsule_nodes_;  // the nodes with a capsule
   void fit_capsules();
-  void place_capsules();
+  void place_capsules(const Mat3& rot);
   mutable uint32_t hit_stamp_ = 0;
 };
 
