@@ -94,6 +94,36 @@ std::map<PairKey, Contact> as_map(const ContactSet& set) {
   return pairs;
 }
 
+// Runs collide() for `placed` (already placed at `pose` with `margins`) and expects exactly the
+// brute-force pair set, with the same data; contact_geometry gives each pair's normal, point and
+// lever. Returns the number of pairs.
+std::size_t expect_brute_force_pairs(const PlacedTool& placed, const Pose& pose,
+                                     std::span<const double> margins,
+                                     std::span<const CollisionObject> objects, ObjectMask mask,
+                                     ContactSet& set, int trial) {
+  set.clear();
+  collide(placed, objects, mask, set);
+  EXPECT_FALSE(set.overflow()) << "trial " << trial;
+  const std::map<PairKey, Contact> got = as_map(set);
+  const std::map<PairKey, BrutePair> want = brute_force(placed.tree(), pose, margins, objects, mask);
+  EXPECT_EQ(got.size(), want.size()) << "trial " << trial;
+  for (const auto& [key, w] : want) {
+    const auto it = got.find(key);
+    if (it == got.end()) {
+      ADD_FAILURE() << "missing pair in trial " << trial;
+      continue;
+    }
+    const Contact& g = it->second;
+    const ContactGeometry geo = contact_geometry(placed, objects, g);
+    EXPECT_NEAR(g.gap, w.contact.gap, 1e-9);
+    EXPECT_NEAR((geo.normal - w.geometry.normal).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((geo.point - w.geometry.point).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((geo.lever - w.geometry.lever).norm(), 0.0, 1e-9);
+    EXPECT_EQ(g.material, w.contact.material);
+  }
+  return got.size();
+}
+
 // Random trees and poses: the traversal finds exactly the brute-force pair set, with the same data;
 // contact_geometry gives each pair's normal, point and lever.
 TEST(Collide, MatchesBruteForceOnRandomTrees) {
@@ -119,24 +149,7 @@ TEST(Collide, MatchesBruteForceOnRandomTrees) {
       placed.place(pose, margins[0]);
     }
     const ObjectMask mask = trial % 3 == 2 ? ObjectMask{0b101} : kAllObjects;
-    set.clear();
-    collide(placed, objects, mask, set);
-    ASSERT_FALSE(set.overflow());
-    const std::map<PairKey, Contact> got = as_map(set);
-    const std::map<PairKey, BrutePair> want = brute_force(tool, pose, margins, objects, mask);
-    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
-    total += got.size();
-    for (const auto& [key, w] : want) {
-      const auto it = got.find(key);
-      ASSERT_NE(it, got.end()) << "missing pair in trial " << trial;
-      const Contact& g = it->second;
-      const ContactGeometry geo = contact_geometry(placed, objects, g);
-      EXPECT_NEAR(g.gap, w.contact.gap, 1e-9);
-      EXPECT_NEAR((geo.normal - w.geometry.normal).norm(), 0.0, 1e-9);
-      EXPECT_NEAR((geo.point - w.geometry.point).norm(), 0.0, 1e-9);
-      EXPECT_NEAR((geo.lever - w.geometry.lever).norm(), 0.0, 1e-9);
-      EXPECT_EQ(g.material, w.contact.material);
-    }
+    total += expect_brute_force_pairs(placed, pose, margins, objects, mask, set, trial);
   }
   EXPECT_GT(total, 1000u) << "the random scenes should produce many pairs";
 }
@@ -624,14 +637,7 @@ TEST(PlacedTool, CapsulesHoldTheLeavesAndPruneWhatTheSpheresCannot) {
             << "node " << i << " leaf " << n.leaf;
       }
     }
-    set.clear();
-    collide(hook, teeth, kAllObjects, set);
-    ASSERT_FALSE(set.overflow());
-    const std::map<PairKey, Contact> got = as_map(set);
-    const std::map<PairKey, BrutePair> want = brute_force(hooked, pose, leaf_margins, teeth, kAllObjects);
-    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
-    for (const auto& [key, w] : want) EXPECT_TRUE(got.count(key) == 1) << "missing pair in trial " << trial;
-    total += got.size();
+    total += expect_brute_force_pairs(hook, pose, leaf_margins, teeth, kAllObjects, set, trial);
   }
   EXPECT_GT(total, 200u) << "the hooked wire should touch the random teeth";
 }
