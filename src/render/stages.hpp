@@ -143,6 +143,9 @@ struct CollisionScratch {
   ObjectMask complete = 0;
   ContactSet capped_overlaps{kMaxPairs};  ///< the re-check's overlaps of capped (tool leaf, object)s
   WorkBudget budget;                      ///< this step's (StepSettings::work_budget), reset by step()
+  /// Work units up to which a further sub-step may start: StepSettings::work_budget times the cycle's
+  /// share of kWorkBudgetCycle (at most all of it); set by step().
+  int64_t substep_budget = 0;
 };
 
 /// Every tool leaf's margin (mm): the largest distance it can move under a displacement bounded by

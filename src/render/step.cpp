@@ -136,11 +136,13 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   int k = 0;
   // The work budget ends the sub-steps early: the first always runs (held where it is clear when the
   // budget runs out inside it); a further one starts only while what is left of the budget covers
-  // the costliest sub-step so far, so that the step's time stays bounded (issue #14 item 10).
+  // the costliest sub-step so far, so that the step's time stays bounded (issue #14 item 10). Below
+  // a 1 ms cycle, "what is left" is of the cycle's share of the budget (substep_budget, issue #11).
   int64_t costliest = 0;
   WorkBudget& budget = s.collision.budget;
   while (!reached && k < std::max(1, m.settings.max_substeps)) {
-    if (k > 0 && (budget.spent() || budget.left < costliest)) {
+    if (k > 0 &&
+        (budget.spent() || budget.left < costliest || s.collision.substep_budget - budget.used < costliest)) {
       trace.flags |= kFlagWorkBudget;
       break;
     }
@@ -218,6 +220,11 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   }
   haptic.q.normalize();
   const double dt = std::isfinite(in.dt) && in.dt > 0.0 && in.dt <= 0.1 ? in.dt : 1.0 / m.servo_rate;
+  // The budget is per kWorkBudgetCycle of simulated time: a shorter cycle lets further sub-steps use
+  // its share of it, so the work per second stays the same at any rate. The first sub-step keeps the
+  // whole budget, so a heavy contact never holds the tool for want of it.
+  s.collision.substep_budget = static_cast<int64_t>(static_cast<double>(s.collision.budget.left) *
+                                                    std::min(1.0, dt / kWorkBudgetCycle));
   if (s.have_haptic && ((haptic.p - s.last_haptic.p).norm() > m.settings.max_jump ||
                         haptic.q.angularDistance(s.last_haptic.q) > m.settings.max_jump_rotation))
     trace.flags |= kFlagJumpLimited;

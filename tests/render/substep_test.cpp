@@ -321,5 +321,34 @@ TEST(Substep, AFurtherSubStepStartsOnlyWhileTheBudgetCoversIt) {
   EXPECT_GT((some.graphic.p - start).norm(), 0.01);  // beyond the first sub-step's bound
 }
 
+// Issue #11: the work budget is per 1 ms of simulated time (kWorkBudgetCycle). At 4 kHz a further
+// sub-step starts only within a quarter of it, so a lagging step stops earlier (flagged) than the
+// same step at 1 kHz; the first sub-step keeps the whole budget, so the tool still moves.
+TEST(Substep, AShorterCycleGivesFurtherSubStepsItsShareOfTheBudget) {
+  Model m = rigid_slab();
+  const Vec3 start(0, 0, kTip + 0.3);
+  const Pose far = probe_at(Vec3(2.0, 0, -5.0));
+  State at_1khz(m, probe_at(start));
+  const StepOutput slow = step(m, at_1khz, HapticInput{far, 0.001});
+  ASSERT_EQ(slow.substeps, m.settings.max_substeps);
+  ASSERT_FALSE(slow.flags & kFlagWorkBudget);
+  // A budget the six sub-steps need more than a quarter of, but less than all of.
+  m.settings.work_budget = slow.work * 3 / 2;
+  State at_4khz(m, probe_at(start));
+  const StepOutput fast = step(m, at_4khz, HapticInput{far, 0.00025});
+  EXPECT_TRUE(fast.flags & kFlagWorkBudget);
+  EXPECT_TRUE(fast.flags & kFlagLagging);
+  EXPECT_GE(fast.substeps, 1);
+  EXPECT_LT(fast.substeps, m.settings.max_substeps);
+  EXPECT_LE(fast.work, m.settings.work_budget / 4);
+  EXPECT_GT((fast.graphic.p - start).norm(), 0.0);
+  EXPECT_GE(test::rigid_clearance(m, fast.graphic), -m.settings.rigid_tolerance);
+  // The same budget at 1 kHz runs all six sub-steps unflagged.
+  State again(m, probe_at(start));
+  const StepOutput same = step(m, again, HapticInput{far, 0.001});
+  EXPECT_EQ(same.substeps, m.settings.max_substeps);
+  EXPECT_FALSE(same.flags & kFlagWorkBudget);
+}
+
 }  // namespace
 }  // namespace cariesim

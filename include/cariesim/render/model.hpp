@@ -37,6 +37,9 @@ struct ToolModel {
   double tip_radius = 0.05;  ///< mm
 };
 
+/// s, the cycle StepSettings::work_budget is for.
+inline constexpr double kWorkBudgetCycle = 0.001;
+
 /// Numerical settings of the step.
 struct StepSettings {
   double trust_step = 0.1;         ///< mm, largest tool-leaf motion per sub-step (trust region)
@@ -56,7 +59,9 @@ struct StepSettings {
   /// whatever the trees, the tool or the materials (12-40 ns a unit on one core of the reference
   /// machine). A further sub-step starts only while what is left covers the costliest sub-step so
   /// far; a query cut short counts as an overlap (the tool holds where it was clear); kFlagWorkBudget
-  /// is set either way.
+  /// is set either way. The budget is per kWorkBudgetCycle: at a faster rate a further sub-step
+  /// starts only within the cycle's share of it (0.25 of it at 4 kHz), while the first sub-step
+  /// keeps all of it, so the work per second of simulated time is the same at any rate.
   int64_t work_budget = 30000;
 };
 
