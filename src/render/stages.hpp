@@ -435,8 +435,13 @@ struct SubstepRequest {
 /// sliding_step after a cycle none of whose sub-steps reached).
 /// Never leaves the tool overlapping rigid tissue by more than the tolerance when g0 did not:
 /// re-checks collision at the solution, re-solves with new pairs, backtracks if needed.
+/// With `wanted`, the first solve's motion before it was shortened onto the bounds (mm, rad).
+struct SubstepMotion {
+  double trans = 0.0;  ///< mm
+  double rot = 0.0;    ///< rad
+};
 Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
-                   StepTrace& trace, bool& reached);
+                   StepTrace& trace, bool& reached, SubstepMotion* wanted = nullptr);
 /// The friction cone on the last solve, made at g0 with coupling G (paper §3.2): slipping anchors
 /// move, unloaded ones release (counted in trace.slips). True when any anchor changed.
 bool slip_anchors(const Params& p, StateImpl& s, const Pose& g0, const Mat6& G, StepTrace& trace);

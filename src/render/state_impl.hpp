@@ -31,6 +31,10 @@ struct StateImpl {
   uint64_t steps = 0;
   double last_motion = 0.0;    ///< mm, tool-origin translation of the graphic tool in the last cycle
   double last_rotation = 0.0;  ///< rad, its rotation in the last cycle
+  /// When the last cycle ended lagging, the motion its last sub-step's solve asked for before it was
+  /// shortened onto the bounds (mm, rad; zero otherwise): the next cycle's first bounds start there.
+  double lag_motion = 0.0;
+  double lag_rotation = 0.0;
   detail::CarriedPairs carried;  ///< pairs that bore load at the last solve (CarriedPairs)
 
   // Model-derived constants.

@@ -113,6 +113,7 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   }
   if (free) {
     s.graphic = haptic;
+    s.lag_motion = s.lag_rotation = 0.0;
     s.regions.count = 0;
     s.carried.count = 0;
     release_anchors(s.anchors);
@@ -128,9 +129,13 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   req.G.diagonal() << p.gains.k_trans, p.gains.k_trans, p.gains.k_trans, p.gains.k_rot, p.gains.k_rot,
       p.gains.k_rot;
   // The first bound follows the last cycle's motion (a resting or slowly sliding tool needs only a
-  // thin collision margin); each further sub-step doubles it up to the trust region.
-  req.trans_bound = std::clamp(2.0 * s.last_motion + 0.005, 0.01, m.settings.trust_step);
-  req.rot_bound = std::clamp(2.0 * s.last_rotation + 1e-4, 1e-3, m.settings.trust_rotation);
+  // thin collision margin), or what the last cycle still wanted when it ended lagging (issue #11: a
+  // short cycle cut by its share of the work budget would otherwise restart from a small bound and
+  // fall further behind); each further sub-step doubles it up to the trust region.
+  req.trans_bound =
+      std::clamp(std::max(2.0 * s.last_motion + 0.005, s.lag_motion), 0.01, m.settings.trust_step);
+  req.rot_bound =
+      std::clamp(std::max(2.0 * s.last_rotation + 1e-4, s.lag_rotation), 1e-3, m.settings.trust_rotation);
   Pose g = s.graphic, g0 = s.graphic;  // g0: where the last sub-step started (its solve's configuration)
   bool reached = false;
   int k = 0;
@@ -149,7 +154,10 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
     const int64_t before = budget.used;
     req.target = config_difference(haptic, g);
     g0 = g;
-    g = solve_substep(m, p, s, g, req, trace, reached);
+    SubstepMotion wanted;
+    g = solve_substep(m, p, s, g, req, trace, reached, &wanted);
+    s.lag_motion = reached ? 0.0 : wanted.trans;
+    s.lag_rotation = reached ? 0.0 : wanted.rot;
     costliest = std::max(costliest, budget.used - before);
     req.trans_bound = std::min(2.0 * req.trans_bound, m.settings.trust_step);
     req.rot_bound = std::min(2.0 * req.rot_bound, m.settings.trust_rotation);
@@ -233,10 +241,12 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   const Pose graphic_before = s.graphic;
   bool inside = s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
   if (!inside) inside = try_enter_penetration(m, p, s, haptic);
-  if (inside)
+  if (inside) {
     penetration_step(m, p, s, haptic, dt, trace);
-  else
+    s.lag_motion = s.lag_rotation = 0.0;
+  } else {
     sliding_step(m, p, s, haptic, trace);
+  }
 
   // History for the next cycle, then the output stage.
   const Vec6 moved = config_difference(s.graphic, graphic_before);

@@ -70,7 +70,7 @@ bool slip_anchors(const Params& p, StateImpl& s, const Pose& g0, const Mat6& G, 
 }
 
 Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
-                   StepTrace& trace, bool& reached) {
+                   StepTrace& trace, bool& reached, SubstepMotion* wanted) {
   // Stage 1: pairs within reach of this sub-step's largest motion, measured at g0.
   set_leaf_margins(m, s.constants, req.trans_bound, req.rot_bound, s.collision);
   if (!collect_pairs(m, s.constants, s.collision, g0, req.mask, s.pairs)) trace.flags |= kFlagContactOverflow;
@@ -87,6 +87,7 @@ Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0
     d = solve_once(m, p, s, g0, req, trace);
     const double scale = bound_scale(d, req);
     reached = scale >= 1.0;
+    if (pass == 0 && wanted != nullptr) *wanted = {d.head<3>().norm(), d.tail<3>().norm()};
 
     // Stage 5, once the motion ends in this sub-step: the friction cone decides, the anchors move
     // between two solves, and the rows are solved again.

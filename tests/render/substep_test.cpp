@@ -350,5 +350,27 @@ TEST(Substep, AShorterCycleGivesFurtherSubStepsItsShareOfTheBudget) {
   EXPECT_FALSE(same.flags & kFlagWorkBudget);
 }
 
+// Issue #11: a cycle that ends lagging passes on what its last sub-step asked for, and the next cycle's
+// first bound starts there instead of at twice its (bounded) motion. With one sub-step a cycle, a
+// tool at rest with the hand far away moves 0.01 mm in the first cycle and a whole trust step in the
+// second (0.025 mm before).
+TEST(Substep, ACycleThatEndedLaggingStartsTheNextWhereItLeftOff) {
+  Model m = rigid_slab();
+  m.settings.max_substeps = 1;
+  const Vec3 start(0, 0, kTip + 0.3);
+  const HapticInput far{probe_at(Vec3(2.0, 0, -5.0)), 0.001};
+  State s(m, probe_at(start));
+  const StepOutput first = step(m, s, far);
+  ASSERT_TRUE(first.flags & kFlagLagging);
+  const double moved_first = (first.graphic.p - start).norm();
+  EXPECT_LE(moved_first, 0.01 + 1e-12);
+  const StepOutput second = step(m, s, far);
+  EXPECT_TRUE(second.flags & kFlagLagging);
+  const double moved_second = (second.graphic.p - first.graphic.p).norm();
+  EXPECT_GT(moved_second, 2.0 * moved_first + 0.005 + 1e-6) << "the first bound restarted from the motion";
+  EXPECT_LE(moved_second, m.settings.trust_step + 1e-12);
+  EXPECT_GE(test::rigid_clearance(m, second.graphic), -m.settings.rigid_tolerance);
+}
+
 }  // namespace
 }  // namespace cariesim
