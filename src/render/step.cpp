@@ -140,14 +140,14 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   bool reached = false;
   int k = 0;
   // The work budget ends the sub-steps early: the first always runs (held where it is clear when the
-  // budget runs out inside it); a further one starts only while what is left of the budget covers
-  // the costliest sub-step so far, so that the step's time stays bounded (issue #14 item 10). Below
-  // a 1 ms cycle, "what is left" is of the cycle's share of the budget (substep_budget, issue #11).
+  // budget runs out inside it); a further one starts only while what is left of the cycle's share of
+  // the budget (substep_budget: all of it at 1 kHz and below, issue #11) covers the costliest
+  // sub-step so far, so that the step's time stays bounded (issue #14 item 10). The share is at most
+  // the budget, so this also keeps the step within the budget itself.
   int64_t costliest = 0;
   WorkBudget& budget = s.collision.budget;
   while (!reached && k < std::max(1, m.settings.max_substeps)) {
-    if (k > 0 &&
-        (budget.spent() || budget.left < costliest || s.collision.substep_budget - budget.used < costliest)) {
+    if (k > 0 && (budget.spent() || s.collision.substep_budget - budget.used < costliest)) {
       trace.flags |= kFlagWorkBudget;
       break;
     }
