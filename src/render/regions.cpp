@@ -13,11 +13,14 @@
 namespace cariesim::detail {
 
 void build_regions(const Model& m, const ModelConstants& k, const PairSet& pairs, RegionSet& out) {
-  // Pairs ordered from the deepest.
+  // Pairs ordered from the deepest. The keys carry their gaps, so that the sort reads no geometry
+  // (issue #11: it was a tenth of a sweep's slowest steps); std::sort's moves follow its comparisons
+  // alone, so pairs of equal gap come out in the order an index sort would give.
   out.pairs = pairs.count;
-  for (int i = 0; i < pairs.count; ++i) out.order[i] = static_cast<int16_t>(i);
-  std::sort(out.order.begin(), out.order.begin() + pairs.count,
-            [&](int16_t a, int16_t b) { return pairs.geometry[a].gap < pairs.geometry[b].gap; });
+  for (int i = 0; i < pairs.count; ++i) out.keys[i] = {pairs.geometry[i].gap, static_cast<int16_t>(i)};
+  std::sort(out.keys.begin(), out.keys.begin() + pairs.count,
+            [](const RegionSet::GapKey& a, const RegionSet::GapKey& b) { return a.gap < b.gap; });
+  for (int i = 0; i < pairs.count; ++i) out.order[i] = out.keys[i].pair;
 
   // Group into regions: same object, tool points within kRegionRadius. The deepest pair founds it.
   out.count = 0;

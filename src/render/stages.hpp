@@ -210,6 +210,12 @@ struct RegionSet {
   std::array<Region, kMaxRegions> regions{};
   int count = 0;
   std::array<int16_t, kMaxPairs> order{};        ///< the pairs, deepest first
+  /// Scratch of the sort: each pair's gap (mm) beside its index, so that the sort reads no geometry.
+  struct GapKey {
+    double gap;
+    int16_t pair;
+  };
+  std::array<GapKey, kMaxPairs> keys{};
   std::array<int16_t, kMaxPairs> pair_region{};  ///< region of each pair, -1 for none (a wall, or full)
   int pairs = 0;  ///< pairs the set was built from (forced pairs added later belong to no region yet)
 };
