@@ -1,10 +1,11 @@
 // The servo loop on oral-cavity with the scripted device following scenes/trajectories/servo-touch-46.csv
 // (onto tooth 46, into the fossa over lesion #1, across the crown; it loops).
 //
-// BM_ServoLoopOralCavity: the real ServoLoop thread, 10 s at 1 kHz and at 4 kHz. Reports step time
-//   (one cycle's work) and jitter (wake-up lateness) percentiles, overruns, cycles and the measured
-//   rate as counters, and the real-time status as the label. CARIESIM_SERVO_BENCH_SECONDS overrides
-//   the 10 s.
+// BM_ServoLoopOralCavity: the real ServoLoop thread, 10 s at 1 kHz and at 4 kHz, each polling the
+//   last kDefaultSpinUs before its deadlines (ServoOptions::spin_us; at most half the period) and
+//   sleeping to them (spin_us 0). Reports step time (one cycle's work) and jitter (wake-up lateness)
+//   percentiles, overruns, cycles and the measured rate as counters, and the real-time status as the
+//   label. CARIESIM_SERVO_BENCH_SECONDS overrides the 10 s.
 // BM_ServoCycleOralCavity: the same cycle's work back to back on this thread (no sleeping), 10000
 //   cycles at dt = 1 ms = the whole path once, repeated 5 times: Google Benchmark's mean/median per
 //   cycle plus the per-cycle percentiles.
@@ -49,6 +50,7 @@ void BM_ServoLoopOralCavity(benchmark::State& state) {
   const Trajectory path = load_trajectory_csv(CARIESIM_SOURCE_DIR "/scenes/trajectories/servo-touch-46.csv");
   ServoOptions options;
   options.rate_hz = static_cast<double>(state.range(0));
+  options.spin_us = static_cast<double>(state.range(1));
   options.realtime = true;
   SpscQueue<ServoSample> samples(1 << 16);
   options.record = &samples;
@@ -93,8 +95,11 @@ void BM_ServoLoopOralCavity(benchmark::State& state) {
   state.SetLabel(status);
 }
 BENCHMARK(BM_ServoLoopOralCavity)
-    ->Arg(1000)
-    ->Arg(4000)
+    ->ArgNames({"rate_hz", "spin_us"})
+    ->Args({1000, static_cast<int64_t>(kDefaultSpinUs)})
+    ->Args({1000, 0})
+    ->Args({4000, static_cast<int64_t>(kDefaultSpinUs)})
+    ->Args({4000, 0})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/servo/servo.hpp"
 #include "commands.hpp"
 #ifdef CARIESIM_HAS_VIEWER
 #include "viewer/viewer.hpp"
@@ -30,6 +31,7 @@ struct RunArgs {
   double exit_after = 0.0;  // s of servo time
   bool show_lesions = false;
   bool no_realtime = false;
+  double spin_us = kDefaultSpinUs;   // µs polled before each deadline
   std::string view;                  // camera preset; empty: the whole scene framed
   std::vector<int> size{1280, 800};  // px, the window's width and height
   bool trainee = false;
@@ -55,6 +57,7 @@ int run_simulator(const RunArgs& args) {
   options.exit_after = args.exit_after;
   options.show_lesions = args.show_lesions;
   options.realtime = !args.no_realtime;
+  options.spin_us = args.spin_us;
   options.view = args.view;
   options.width = args.size[0];
   options.height = args.size[1];
@@ -125,6 +128,11 @@ void register_run(CLI::App& app, Registry& registry) {
                   "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
       ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
+  sub->add_option("--spin-us", args->spin_us,
+                  "Microseconds before each deadline the servo thread polls the clock instead of sleeping "
+                  "(at most half the period; 0 sleeps)")
+      ->check(finite_range(0.0, kMaxSpinUs))
+      ->capture_default_str();
   registry.add(sub, [args] { return run_simulator(*args); });
   registry.set_default([args] { return run_simulator(*args); });
 }

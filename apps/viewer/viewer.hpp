@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include "cariesim/servo/servo.hpp"
+
 namespace cariesim::viewer {
 
 struct ViewerOptions {
@@ -19,6 +21,7 @@ struct ViewerOptions {
   double exit_after = 0.0;          ///< s of servo time after which the viewer exits; 0: never
   bool show_lesions = false;        ///< start with the lesions revealed (hidden is a trial's default)
   bool realtime = true;             ///< ask for real-time priority for the servo thread
+  double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)
   int width = 1280;                 ///< px, window width
   int height = 800;                 ///< px, window height
   /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);

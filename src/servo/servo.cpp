@@ -56,6 +56,12 @@ void check_servo_rate(double rate_hz) {
     throw Error("servo rate " + std::to_string(rate_hz) + " Hz is outside (0, 10000]");
 }
 
+void check_servo_spin(double spin_us) {
+  if (!(spin_us >= 0.0 && spin_us <= kMaxSpinUs))
+    throw Error("servo spin " + std::to_string(spin_us) + " us is outside [0, " +
+                std::to_string(static_cast<int>(kMaxSpinUs)) + "]");
+}
+
 Params initial_params(const Model& model, const DeviceLimits& device) {
   return with_device_limits(model.defaults, device);
 }
@@ -118,11 +124,14 @@ ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& opt
       options_(options),
       dt_(0.0),
       period_ns_(0),
+      spin_ns_(0),
       safety_(options.safety),
       params_out_(params_) {
   check_servo_rate(options.rate_hz);
+  check_servo_spin(options.spin_us);
   period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.rate_hz));
   dt_ = static_cast<double>(period_ns_) * 1e-9;
+  spin_ns_ = std::min<int64_t>(std::llround(options.spin_us * 1e3), period_ns_ / 2);
   options_.params.reset();  // held in params_
   // The starting Params are published at once; later versions reuse the slots' memory.
   params_out_.write(params_);
@@ -191,8 +200,9 @@ void ServoLoop::run() {
   rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
   measured_rate_ = options_.rate_hz;
   while (running_.load(std::memory_order_relaxed)) {
-    // Wait for the absolute deadline; how late we woke is the jitter.
-    sleep_until_ns(deadline);
+    // Wait for the absolute deadline, polling the clock for its last spin_ns_; how late we woke is
+    // the jitter.
+    wait_until_ns(deadline, spin_ns_);
     const int64_t wake = monotonic_ns();
     jitter_hist_.add(static_cast<double>(wake - deadline) * 1e-3);
     t = time_base_ + static_cast<double>(deadline - start_ns) * 1e-9;

@@ -96,6 +96,7 @@ Session::Session(const Model& model, std::unique_ptr<Device> device, const Sessi
   device_info_ = device_->info();
   const double rate = options.rate_hz > 0.0 ? options.rate_hz : model.servo_rate;
   check_servo_rate(rate);
+  check_servo_spin(options.spin_us);
 
   // The session row, filled here for every kind of run: what ran, on what, and with which Params.
   const Params start = initial_params(model, device_info_.limits);
@@ -128,6 +129,7 @@ void Session::make_loop(const Params& params) {
   ServoOptions servo;
   servo.rate_hz = info_.rate_hz;
   servo.realtime = options_.realtime;
+  servo.spin_us = options_.spin_us;
   servo.safety = options_.safety;
   servo.record = recorder_ ? &recorder_->queue() : nullptr;
   servo.params = params;

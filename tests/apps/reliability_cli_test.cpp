@@ -65,6 +65,8 @@ TEST_F(Reliability, NanIsRefusedByEveryNumberOption) {
       {"servo --scene friction-block --duration nan --quiet", "--duration"},
       {"servo --scene friction-block --duration inf --quiet", "--duration"},
       {"servo --scene friction-block --rate nan --duration 0.1 --quiet", "--rate"},
+      {"servo --scene friction-block --spin-us nan --duration 0.1 --quiet", "--spin-us"},
+      {"run --spin-us nan --exit-after 0.1", "--spin-us"},
       {"sim --scene friction-block --trajectory " + traj + " --out " + out + " --rate nan --quiet", "--rate"},
       {"tree friction-block --tolerance nan", "--tolerance"},
       {"experiment friction --out " + (dir_ / "exp").string() + " --rate nan --quiet", "--rate"},

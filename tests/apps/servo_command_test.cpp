@@ -53,6 +53,7 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
   EXPECT_THAT(err_, HasSubstr("jitter    (us): p50"));
   EXPECT_THAT(err_, HasSubstr("overruns"));
   EXPECT_THAT(err_, HasSubstr("real-time: not requested"));
+  EXPECT_THAT(err_, HasSubstr("polls the last 150 us of each wait"));
   const Recording rec = load_recording(db);
   EXPECT_EQ(rec.info.scene, "friction-block");
   EXPECT_EQ(rec.info.device, "scripted:" + path.string());

@@ -1,10 +1,14 @@
 // ServoLoop with the real engine on the built-in friction-block scene: cycles happen, snapshots
 // arrive, samples flow (and drops are counted), parameter changes reach the running Params and are
 // published, a device's announced limits tighten them, start/stop/start works, and the running cycle
-// allocates nothing. No wall-clock timing is asserted.
+// allocates nothing; the spin before each deadline is checked and capped at half the period. No
+// wall-clock timing is asserted.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -77,6 +81,31 @@ TEST(ServoLoop, RejectsRatesOutsideTheRange) {
   o.rate_hz = 10000.0;
   ServoLoop fast(m, d, o);
   EXPECT_DOUBLE_EQ(fast.dt(), 1e-4);
+}
+
+TEST(ServoLoop, RejectsSpinsOutsideTheRangeAndPollsAtMostHalfThePeriod) {
+  Model m = friction_block();
+  HoldDevice d(m.tool_home);
+  for (double spin : {-1.0, 10001.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    ServoOptions o = quiet_options();
+    o.spin_us = spin;
+    try {
+      ServoLoop loop(m, d, o);
+      ADD_FAILURE() << "spin " << spin << " us accepted";
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), testing::HasSubstr("spin")) << spin;
+    }
+  }
+  // The default at 1 kHz; half the period where the asked spin is longer.
+  ServoOptions o = quiet_options();
+  EXPECT_DOUBLE_EQ(ServoLoop(m, d, o).spin_us(), kDefaultSpinUs);
+  o.rate_hz = 4000.0;
+  EXPECT_DOUBLE_EQ(ServoLoop(m, d, o).spin_us(), 125.0);
+  o.rate_hz = 1000.0;
+  o.spin_us = kMaxSpinUs;
+  EXPECT_DOUBLE_EQ(ServoLoop(m, d, o).spin_us(), 500.0);
+  o.spin_us = 0.0;
+  EXPECT_DOUBLE_EQ(ServoLoop(m, d, o).spin_us(), 0.0);
 }
 
 TEST(ServoLoop, CyclesPublishSnapshotsAndTiming) {

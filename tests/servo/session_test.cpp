@@ -85,6 +85,11 @@ TEST(Session, FillsTheSessionRowOnce) {
   EXPECT_NE(info.parameters.find("\"max_force\":22"), std::string::npos) << info.parameters;
   EXPECT_EQ(session.device_info().name, "null");
   EXPECT_EQ(session.recorder(), nullptr);
+  // The loop polls what the options ask before each deadline.
+  EXPECT_DOUBLE_EQ(session.loop().spin_us(), kDefaultSpinUs);
+  SessionOptions sleeping = quiet();
+  sleeping.spin_us = 0.0;
+  EXPECT_DOUBLE_EQ(Session(m, sleeping).loop().spin_us(), 0.0);
 }
 
 TEST(Session, RecordsWithTheSessionRowAndParamEvents) {
@@ -168,6 +173,14 @@ TEST(Session, BadInputsNameWhatWasWrongAndLeaveNoRecord) {
     ADD_FAILURE() << "accepted a rate of 20 kHz";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("servo rate"), std::string::npos) << e.what();
+  }
+  o.rate_hz = 0.0;
+  o.spin_us = -1.0;
+  try {
+    Session session(m, o);
+    ADD_FAILURE() << "accepted a spin of -1 us";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("servo spin"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(file.path()));  // refused before the recorder made the file
 }

@@ -87,10 +87,19 @@ struct PublishedParams {
   uint64_t version = 0;  ///< ServoSnapshot::params_version they belong to
 };
 
+/// µs, ServoOptions::spin_us unless asked otherwise.
+inline constexpr double kDefaultSpinUs = 150.0;
+/// µs, the longest spin accepted (the effective one is also at most half the period).
+inline constexpr double kMaxSpinUs = 10000.0;
+
 struct ServoOptions {
   double rate_hz = 1000.0;                   ///< Hz, 1 kHz default, up to 10 kHz
   bool realtime = true;                      ///< ask for SCHED_FIFO (reports when refused)
   int realtime_priority = 80;                ///< SCHED_FIFO priority asked for (1-99)
+  /// µs before each deadline the thread stops sleeping and polls the clock (wait_until_ns), at most
+  /// half the period; 0 sleeps the whole wait. Costs that share of a core; buys a punctual start
+  /// (issue #11: this machine woke a sleeping thread up to 0.5 ms late once a second or so).
+  double spin_us = kDefaultSpinUs;
   SafetyParams safety;                       ///< ramp, staleness, jump, global force scale
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
   /// The Params to start from (e.g. a restarted session's, with what the user tuned); their material
@@ -102,6 +111,8 @@ struct ServoOptions {
 inline constexpr double kMaxServoRate = 10000.0;
 /// Throws cariesim::Error when `rate_hz` is outside (0, kMaxServoRate].
 void check_servo_rate(double rate_hz);
+/// Throws cariesim::Error when `spin_us` is outside [0, kMaxSpinUs] or not a number.
+void check_servo_spin(double spin_us);
 
 /// The Params a loop starts from: the model's authored ones (Model::defaults) within the limits of
 /// a device (with_device_limits: the tighter limits, the coupling stiffness at most the device's).
@@ -125,8 +136,8 @@ class ServoLoop {
  public:
   /// The loop owns a State for `model` and the running Params (options.params, or the model's
   /// defaults within the device's limits; changes arrive through post()); `model` and `device` must
-  /// outlive it. Throws cariesim::Error when rate_hz is outside (0, 10000] or options.params were
-  /// made for another model.
+  /// outlive it. Throws cariesim::Error when rate_hz is outside (0, 10000], spin_us outside
+  /// [0, 10000] or options.params were made for another model.
   ServoLoop(const Model& model, Device& device, const ServoOptions& options);
   ~ServoLoop();
   ServoLoop(const ServoLoop&) = delete;
@@ -157,6 +168,8 @@ class ServoLoop {
   bool latest_params(PublishedParams& out) { return params_out_.read(out); }
   /// The fixed step, 1 / rate_hz (s).
   [[nodiscard]] double dt() const { return dt_; }
+  /// µs polled before each deadline: ServoOptions::spin_us, at most half the period.
+  [[nodiscard]] double spin_us() const { return static_cast<double>(spin_ns_) * 1e-3; }
 
  private:
   void run();
@@ -171,6 +184,7 @@ class ServoLoop {
   ServoOptions options_;
   double dt_;  // s
   int64_t period_ns_;
+  int64_t spin_ns_;  // the polled end of each wait: options.spin_us, at most half the period
   std::unique_ptr<State> state_;
   ForceSafety safety_;
   TripleBuffer<ServoSnapshot> snapshots_;
