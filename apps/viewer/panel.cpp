@@ -204,7 +204,8 @@ void ViewerApp::panel_status() {
   ImGui::Text("step  p50 %.1f  p99 %.1f  max %.1f us", timing_.step_p50, timing_.step_p99, timing_.step_max);
   ImGui::Text("jitter p50 %.1f  p99 %.1f  max %.1f us", timing_.jitter_p50, timing_.jitter_p99,
               timing_.jitter_max);
-  ImGui::TextWrapped("priority: %s", s.run->loop().realtime_status().c_str());
+  ImGui::TextWrapped("priority: %s; polls the last %.0f us", s.run->loop().realtime_status().c_str(),
+                     s.run->loop().spin_us());
   if (const Recorder* recorder = s.run->recorder()) {
     const RecorderStatus record = recorder->status();
     ImGui::Text("recording %s (%llu samples)", options_.record.c_str(),
@@ -467,6 +468,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.field("overruns", static_cast<long long>(timing_.overruns));
   json.field("work_budget", static_cast<long long>(timing_.work_budget));
   json.field("rate_hz", timing_.rate_hz);
+  json.field("spin_us", session_ ? session_->run->loop().spin_us() : 0.0);
   json.field("step_p50_us", timing_.step_p50).field("step_p99_us", timing_.step_p99);
   json.field("step_p999_us", timing_.step_p999).field("step_max_us", timing_.step_max);
   json.field("jitter_p50_us", timing_.jitter_p50).field("jitter_p99_us", timing_.jitter_p99);

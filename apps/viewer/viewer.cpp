@@ -493,11 +493,11 @@ void ViewerApp::print_summary() const {
         out.contacts, snapshot_.t);
   }
   std::printf("servo: %llu cycles at %.1f Hz, %llu overruns, %llu steps cut short by the work budget; "
-              "real-time: %s\n",
+              "real-time: %s; polls the last %.0f us of each wait\n",
               static_cast<unsigned long long>(timing_.cycles), timing_.rate_hz,
               static_cast<unsigned long long>(timing_.overruns),
               static_cast<unsigned long long>(timing_.work_budget),
-              session_->run->loop().realtime_status().c_str());
+              session_->run->loop().realtime_status().c_str(), session_->run->loop().spin_us());
   std::printf("step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.step_p50,
               timing_.step_p99, timing_.step_p999, timing_.step_max);
   std::printf("jitter (us):    p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n", timing_.jitter_p50,
