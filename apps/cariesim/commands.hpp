@@ -24,6 +24,9 @@ inline CLI::Validator finite_range(double min, double max) {
       "FINITE in [" + CLI::detail::to_string(min) + " - " + CLI::detail::to_string(max) + "]");
 }
 
+/// Adds `--spin-us` (ServoOptions::spin_us) to a subcommand that runs the servo loop.
+void add_spin_option(CLI::App* sub, double& spin_us);
+
 /// Subcommands and what to run for each; the default (no subcommand) runs `fallback`.
 class Registry {
  public:

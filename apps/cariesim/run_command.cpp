@@ -128,11 +128,7 @@ void register_run(CLI::App& app, Registry& registry) {
                   "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
       ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
-  sub->add_option("--spin-us", args->spin_us,
-                  "Microseconds before each deadline the servo thread polls the clock instead of sleeping "
-                  "(at most half the period; 0 sleeps)")
-      ->check(finite_range(0.0, kMaxSpinUs))
-      ->capture_default_str();
+  add_spin_option(sub, args->spin_us);
   registry.add(sub, [args] { return run_simulator(*args); });
   registry.set_default([args] { return run_simulator(*args); });
 }

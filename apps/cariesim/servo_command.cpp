@@ -157,6 +157,14 @@ int run_servo(const ServoArgs& args) {
 
 }  // namespace
 
+void add_spin_option(CLI::App* sub, double& spin_us) {
+  sub->add_option("--spin-us", spin_us,
+                  "Microseconds before each deadline the servo thread polls the clock instead of sleeping "
+                  "(at most half the period; 0 sleeps)")
+      ->check(finite_range(0.0, kMaxSpinUs))
+      ->capture_default_str();
+}
+
 void register_servo(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<ServoArgs>();
   CLI::App* sub = app.add_subcommand("servo", "Run the real-time servo loop with a device, without a window");
@@ -175,11 +183,7 @@ void register_servo(CLI::App& app, Registry& registry) {
       ->check(finite_range(0.0, 1.0))
       ->capture_default_str();
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for SCHED_FIFO priority");
-  sub->add_option("--spin-us", args->spin_us,
-                  "Microseconds before each deadline the servo thread polls the clock instead of sleeping "
-                  "(at most half the period; 0 sleeps)")
-      ->check(finite_range(0.0, kMaxSpinUs))
-      ->capture_default_str();
+  add_spin_option(sub, args->spin_us);
   sub->add_flag("--quiet", args->quiet, "Only the final report");
   registry.add(sub, [args] { return run_servo(*args); });
 }
