@@ -12,6 +12,24 @@
 
 namespace cariesim {
 
+// The queries' view of a placement: the world copies as they are, without moving what is left
+// (PlacedTool's accessors move everything first). A query moves a tool node's children with
+// reach_children() before it reads them.
+struct PlacedToolNodes {
+  static const Vec3* centers(const PlacedTool& t) { return t.centers_.data(); }
+  static const Vec3* capsule_a(const PlacedTool& t) { return t.capsule_a_.data(); }
+  static const Vec3* capsule_d(const PlacedTool& t) { return t.capsule_d_.data(); }
+  static const double* capsule_radii(const PlacedTool& t) { return t.capsule_radii_.data(); }
+  static const double* radii(const PlacedTool& t) { return t.radii_.data(); }
+  static const double* leaf_margins(const PlacedTool& t) { return t.leaf_margin_.data(); }
+  // The world centre of one node, moving it (with its siblings) first when it is not yet.
+  static const Vec3& center(const PlacedTool& t, uint32_t node) {
+    const uint32_t parent = t.parent_[node];
+    if (parent != node) t.reach_children(parent);
+    return t.centers_[node];
+  }
+};
+
 namespace {
 
 // Pending node pairs of a dual traversal. Depth first, each split pushes at most 7 siblings that wait
@@ -30,6 +48,7 @@ struct NodePair {
 
 // Everything the traversal of one object reads, as raw pointers (no bounds checks in the hot loop).
 struct Query {
+  const PlacedTool* placed;        // moves a tool node's children before they are read
   const SphereNode* tool_nodes;    // tool frame radii (true), leaf ids
   const Vec3* tool_centers;        // world
   const double* tool_radii;        // inflated
@@ -201,6 +220,7 @@ void traverse(const Query& q, ContactSet& out) {
     }
     const bool split_tool =
         !tn.is_leaf() && (on.is_leaf() || q.tool_radii[pair.tool] >= static_cast<double>(on.radius));
+    if (split_tool) q.placed->reach_children(pair.tool);
     const SphereNode& split = split_tool ? tn : on;
     const uint32_t end = split.first + split.count;
     // Children that still overlap, nearest first: leaf pairs are tested at once, the others wait on
@@ -252,19 +272,11 @@ struct BoundedPair {
 
 // Lower bound of the gap between any leaves under a tool node and an object node (true radii);
 // the exact gap for two leaves.
-inline double gap_bound(const PlacedTool& tool, const SphereNode* tool_nodes, const SphereNode* object_nodes,
+inline double gap_bound(const Vec3* tool_centers, const SphereNode* tool_nodes, const SphereNode* object_nodes,
                         uint32_t t, uint32_t o) {
   const SphereNode& on = object_nodes[o];
-  return (tool.centers()[t] - on.center.cast<double>()).norm() - static_cast<double>(tool_nodes[t].radius) -
+  return (tool_centers[t] - on.center.cast<double>()).norm() - static_cast<double>(tool_nodes[t].radius) -
          static_cast<double>(on.radius);
-}
-
-// Moves every tool node centre into the world: c_world = p + R c_tool.
-void place_centers(const SphereTree& tool, const Pose& pose, const Mat3& rot, std::vector<Vec3>& centers) {
-  const SphereNode* nodes = tool.nodes.data();
-  Vec3* out = centers.data();
-  const std::size_t count = tool.nodes.size();
-  for (std::size_t i = 0; i < count; ++i) out[i] = pose.p + rot * nodes[i].center.cast<double>();
 }
 
 }  // namespace
@@ -287,6 +299,7 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
                 " tool leaves exceed the contact's 16-bit leaf index");
   }
   centers_.assign(tool.nodes.size(), Vec3::Zero());
+  children_placed_.assign(tool.nodes.size(), 0u);
   radii_.assign(tool.nodes.size(), 0.0);
   leaf_margin_.assign(tool.leaf_count(), 0.0);
   leaf_hits_.assign(tool.leaf_count(), LeafHits{});
@@ -298,10 +311,17 @@ PlacedTool::PlacedTool(const SphereTree& tool) : tool_(&tool) {
     const SphereNode& n = tool.nodes[i];
     for (uint32_t c = n.first; c < n.first + n.count; ++c) parent_[c] = static_cast<uint32_t>(i);
   }
+  max_reach_.assign(tool.nodes.size(), 0.0);
   for (std::size_t i = tool.nodes.size(); i-- > 0;) {
     const SphereNode& n = tool.nodes[i];
-    if (n.is_leaf()) leaves_below_[i] = 1;
-    for (uint32_t c = n.first; c < n.first + n.count; ++c) leaves_below_[i] += leaves_below_[c];
+    if (n.is_leaf()) {
+      leaves_below_[i] = 1;
+      max_reach_[i] = n.center.cast<double>().norm();
+    }
+    for (uint32_t c = n.first; c < n.first + n.count; ++c) {
+      leaves_below_[i] += leaves_below_[c];
+      max_reach_[i] = std::max(max_reach_[i], max_reach_[c]);
+    }
   }
   fit_capsules();
 }
@@ -322,7 +342,6 @@ void PlacedTool::fit_capsules() {
   capsule_inv_dd_.assign(n, 0.0);
   capsule_radii_.assign(n, 0.0);
   has_capsule_.assign(n, 0);
-  capsule_nodes_.clear();
   std::vector<uint32_t> leaves;
   std::vector<uint32_t> pending;
   for (std::size_t i = 0; i < n; ++i) {
@@ -367,7 +386,6 @@ void PlacedTool::fit_capsules() {
     }
     if (!(radius < kCapsuleGain * static_cast<double>(nodes[i].radius))) continue;
     has_capsule_[i] = 1;
-    capsule_nodes_.push_back(static_cast<uint32_t>(i));
     tool_capsule_a_[i] = mean + t_min * axis;
     tool_capsule_d_[i] = (t_max - t_min) * axis;
     const double dd = tool_capsule_d_[i].squaredNorm();
@@ -376,14 +394,48 @@ void PlacedTool::fit_capsules() {
   }
 }
 
-void PlacedTool::place_capsules(const Mat3& rot) {
-  const std::vector<SphereNode>& nodes = tool_->nodes;
-  for (const uint32_t i : capsule_nodes_) {
-    capsule_a_[i] = pose_.p + rot * tool_capsule_a_[i];
-    capsule_d_[i] = rot * tool_capsule_d_[i];
-    // Grown like the node's sphere: by the largest margin of the leaves below.
-    capsule_radii_[i] = tool_capsule_radius_[i] + (radii_[i] - static_cast<double>(nodes[i].radius));
+[[gnu::flatten]] void PlacedTool::place_node(std::size_t i) const {
+  const SphereNode& n = tool_->nodes[i];
+  centers_[i] = pose_.p + rot_ * n.center.cast<double>();
+  if (reach_margins_) {
+    const double margin = margins_.at(max_reach_[i]);
+    radii_[i] = static_cast<double>(n.radius) + margin;
+    if (n.is_leaf()) leaf_margin_[n.leaf] = margin;
   }
+  if (has_capsule_[i] == 0) return;
+  capsule_a_[i] = pose_.p + rot_ * tool_capsule_a_[i];
+  capsule_d_[i] = rot_ * tool_capsule_d_[i];
+  // Grown like the node's sphere: by the largest margin of the leaves below.
+  capsule_radii_[i] = tool_capsule_radius_[i] + (radii_[i] - static_cast<double>(n.radius));
+}
+
+void PlacedTool::place_children(uint32_t node) const {
+  const SphereNode& n = tool_->nodes[node];
+  for (uint32_t c = n.first; c < n.first + n.count; ++c) place_node(c);
+  children_placed_[node] = place_stamp_;
+}
+
+void PlacedTool::start_placement(const Pose& pose) {
+  pose_ = pose;
+  rot_ = pose.q.toRotationMatrix();
+  // Stamps tell this placement's moved nodes from older ones without clearing the table each time.
+  if (++place_stamp_ == 0) {
+    std::fill(children_placed_.begin(), children_placed_.end(), 0u);
+    place_stamp_ = 1;
+  }
+}
+
+void PlacedTool::place(const Pose& pose, const ReachMargins& margins) {
+  start_placement(pose);
+  reach_margins_ = true;
+  margins_ = margins;
+  if (!tool_->nodes.empty()) place_node(0);
+}
+
+void PlacedTool::place_all() const {
+  if (tool_->nodes.empty()) return;
+  for (uint32_t i = 0; i < tool_->nodes.size(); ++i)
+    if (!tool_->nodes[i].is_leaf()) reach_children(i);
 }
 
 uint32_t PlacedTool::next_hit_stamp() const {
@@ -397,25 +449,24 @@ uint32_t PlacedTool::next_hit_stamp() const {
 }
 
 void PlacedTool::place(const Pose& pose, double margin) {
-  pose_ = pose;
-  const Mat3 rot = pose.q.toRotationMatrix();
-  place_centers(*tool_, pose, rot, centers_);
+  start_placement(pose);
+  reach_margins_ = false;
   // One margin for every leaf (negative or non-finite counts as zero): every node, leaf or inner,
   // grows by exactly that much.
   const double m = std::isfinite(margin) ? std::max(margin, 0.0) : 0.0;
   std::fill(leaf_margin_.begin(), leaf_margin_.end(), m);
   const std::vector<SphereNode>& nodes = tool_->nodes;
   for (std::size_t i = 0; i < nodes.size(); ++i) radii_[i] = static_cast<double>(nodes[i].radius) + m;
-  place_capsules(rot);
+  if (!nodes.empty()) place_node(0);
 }
 
 void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
   assert((leaf_margin.empty() || leaf_margin.size() == leaf_margin_.size()) && "one margin per tool leaf");
-  pose_ = pose;
-  const Mat3 rot = pose.q.toRotationMatrix();
-  place_centers(*tool_, pose, rot, centers_);
   // Per-leaf margins (an empty table keeps the ones already set); bad values count as zero.
   const std::size_t given = std::min(leaf_margin.size(), leaf_margin_.size());
+  if (reach_margins_ && given < leaf_margin_.size()) place_all();  // the margins to keep
+  start_placement(pose);
+  reach_margins_ = false;
   for (std::size_t i = 0; i < given; ++i) {
     const double m = leaf_margin[i];
     leaf_margin_[i] = std::isfinite(m) ? std::max(m, 0.0) : 0.0;
@@ -435,7 +486,7 @@ void PlacedTool::place(const Pose& pose, std::span<const double> leaf_margin) {
     }
     radii_[i] = static_cast<double>(n.radius) + inflation;
   }
-  place_capsules(rot);
+  if (!nodes.empty()) place_node(0);
 }
 
 void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
@@ -444,21 +495,22 @@ void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, O
   if (tree.empty()) return;
   // Tool data shared by every object.
   Query q{};
+  q.placed = &tool;
   q.tool_nodes = tree.nodes.data();
-  q.tool_centers = tool.centers().data();
-  q.tool_radii = tool.radii().data();
-  q.leaf_margin = tool.leaf_margins().data();
-  q.cap_a = tool.capsule_a().data();
-  q.cap_d = tool.capsule_d().data();
+  q.tool_centers = PlacedToolNodes::centers(tool);
+  q.tool_radii = PlacedToolNodes::radii(tool);
+  q.leaf_margin = PlacedToolNodes::leaf_margins(tool);
+  q.cap_a = PlacedToolNodes::capsule_a(tool);
+  q.cap_d = PlacedToolNodes::capsule_d(tool);
   q.cap_inv_dd = tool.capsule_inv_dd().data();
-  q.cap_r = tool.capsule_radii().data();
+  q.cap_r = PlacedToolNodes::capsule_radii(tool);
   q.has_cap = tool.has_capsule().data();
   q.hits = tool.leaf_hits().data();
   q.caps = tool.node_caps().data();
   q.parent = tool.parents().data();
   q.leaves_below = tool.leaves_below().data();
   q.max_per_leaf = max_per_leaf;
-  q.leaf_quota = tool.leaf_quota().size() == tool.leaf_margins().size() ? tool.leaf_quota().data() : nullptr;
+  q.leaf_quota = tool.leaf_quota().size() == tree.leaf_count() ? tool.leaf_quota().data() : nullptr;
   q.budget = budget;
   // One traversal per masked, non-empty object (the mask addresses the first 64).
   const std::size_t n = std::min<std::size_t>(objects.size(), 64);
@@ -477,7 +529,7 @@ ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const Collisi
                                  const Contact& contact) {
   // Both centres in the world; a direction is undefined below kCoincident, then the tool's axis.
   const SphereNode& on = objects[contact.object].tree.nodes[contact.object_node];
-  const Vec3 c_t = tool.centers()[tool.tree().leaf_nodes[contact.tool_leaf]];
+  const Vec3 c_t = PlacedToolNodes::center(tool, tool.tree().leaf_nodes[contact.tool_leaf]);
   const Vec3 c_o = on.center.cast<double>();
   const Vec3 d = c_t - c_o;
   const double dist = d.norm();
@@ -501,6 +553,7 @@ ClosestPair bounded_search(const PlacedTool& tool, std::span<const CollisionObje
   const SphereTree& tree = tool.tree();
   if (tree.empty() || std::isnan(search_mm)) return best;
   const SphereNode* tn = tree.nodes.data();
+  const Vec3* tc = PlacedToolNodes::centers(tool);  // a split tool node's children are moved first
   // Branch and bound: a pair is explored only while its lower bound beats the best gap so far
   // (initially the search radius); children are pushed far-to-near so the nearest is explored first.
   double bound_limit = search_mm;
@@ -510,7 +563,7 @@ ClosestPair bounded_search(const PlacedTool& tool, std::span<const CollisionObje
     if (((mask >> i) & 1u) == 0 || objects[i].tree.empty()) continue;
     const SphereNode* on = objects[i].tree.nodes.data();
     int top = 0;
-    stack[top++] = {gap_bound(tool, tn, on, 0, 0), 0, 0};
+    stack[top++] = {gap_bound(tc, tn, on, 0, 0), 0, 0};
     while (top > 0) {
       const BoundedPair pair = stack[--top];
       if (!(pair.bound < bound_limit)) continue;
@@ -529,13 +582,14 @@ ClosestPair bounded_search(const PlacedTool& tool, std::span<const CollisionObje
       }
       // Split the larger sphere; keep the children that can still beat the best gap.
       const bool split_tool = !a.is_leaf() && (b.is_leaf() || a.radius >= b.radius);
+      if (split_tool) tool.reach_children(pair.tool);
       const SphereNode& split = split_tool ? a : b;
       std::array<BoundedPair, 8> kids;
       int kid_count = 0;
       for (uint32_t c = split.first; c < split.first + split.count; ++c) {
         const uint32_t t = split_tool ? c : pair.tool;
         const uint32_t o = split_tool ? pair.object : c;
-        const double lb = gap_bound(tool, tn, on, t, o);
+        const double lb = gap_bound(tc, tn, on, t, o);
         if (!(lb < bound_limit)) continue;
         if (kid_count < static_cast<int>(kids.size())) {
           kids[kid_count++] = {lb, t, o};

@@ -560,6 +560,103 @@ TEST(PlacedTool, InflatesLeavesAndTheirAncestors) {
   EXPECT_GT(placed.radii()[0], tool.nodes[0].radius + 0.4);
 }
 
+// Issue #11: margins by reach give the pairs, leaf margins and radii of the table of the same margins
+// (the step's margins: the sub-step's translation bound plus its rotation bound times each leaf's
+// reach), although each node's radius is made only when a query reaches it.
+TEST(PlacedTool, MarginsByReachMatchTheirTable) {
+  std::mt19937 rng(11);
+  const SphereTree tool = build_hierarchy(random_leaves(120, rng, Vec3f(0, 0, 2), 2.5f, 0.03f, 0.4f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(2000, rng, Vec3f(0, 0, 0), 4.0f, 0.05f, 0.3f), 4, "a"));
+  objects.push_back(make_object(random_leaves(800, rng, Vec3f(-2, 0, 1), 2.0f, 0.0f, 0.2f), 8, "b"));
+  const std::array<ReachMargins, 6> rules{{
+      {0.05, 0.02, 0.01},
+      {0.0, 0.1, 0.0},
+      {0.2, 0.0, 0.005},
+      {-0.3, 0.15, 0.0},                                      // negative near the origin: zero there
+      {0.05, -1.0, 0.0},                                      // a negative rate counts as zero
+      {0.1, std::numeric_limits<double>::quiet_NaN(), 0.0}}};  // non-finite: every margin zero
+  PlacedTool by_reach(tool);
+  PlacedTool by_table(tool);
+  ContactSet set(1 << 16);
+  std::size_t total = 0;
+  for (std::size_t trial = 0; trial < 2 * rules.size(); ++trial) {
+    const ReachMargins& rule = rules[trial % rules.size()];
+    const Pose pose = random_pose(rng, 1.5);
+    std::vector<double> margins(tool.leaf_count());
+    for (std::size_t i = 0; i < tool.leaf_count(); ++i)
+      margins[i] = rule.at(tool.nodes[tool.leaf_nodes[i]].center.cast<double>().norm());
+    by_reach.place(pose, rule);
+    total += expect_brute_force_pairs(by_reach, pose, margins, objects, kAllObjects, set, static_cast<int>(trial));
+    by_table.place(pose, margins);
+    for (std::size_t i = 0; i < tool.leaf_count(); ++i) {
+      EXPECT_EQ(by_reach.leaf_margins()[i], margins[i]) << "trial " << trial << " leaf " << i;
+      EXPECT_GE(margins[i], 0.0);
+    }
+    for (std::size_t i = 0; i < tool.nodes.size(); ++i)
+      EXPECT_NEAR(by_reach.radii()[i], by_table.radii()[i], 1e-12) << "trial " << trial << " node " << i;
+  }
+  EXPECT_GT(total, 200u) << "the random scenes should produce pairs";
+  // A table placement without a table keeps the margins by reach of the call before.
+  by_reach.place(Pose{}, rules[0]);
+  by_reach.place(Pose{}, std::span<const double>{});
+  for (std::size_t i = 0; i < tool.leaf_count(); ++i)
+    EXPECT_EQ(by_reach.leaf_margins()[i], rules[0].at(tool.nodes[tool.leaf_nodes[i]].center.cast<double>().norm()));
+}
+
+// Issue #11: a placement moves a node only when a query reaches it, so one placed tool reused along a
+// path must answer every query as a tool placed afresh at each pose would: nothing of an earlier pose
+// is left in what the queries read, and the accessors give the whole tool at the current pose.
+TEST(PlacedTool, AReusedPlacementAnswersAsAFreshOne) {
+  std::mt19937 rng(12);
+  const SphereTree tool = build_hierarchy(random_leaves(90, rng, Vec3f(0, 0, 2), 2.0f, 0.05f, 0.3f), 4);
+  std::vector<CollisionObject> objects;
+  objects.push_back(make_object(random_leaves(1500, rng, Vec3f(0, 0, 0), 3.0f, 0.05f, 0.3f), 4, "a"));
+  objects.push_back(make_object(random_leaves(600, rng, Vec3f(1, 1, 1), 2.0f, 0.05f, 0.2f), 2, "b"));
+  PlacedTool reused(tool);
+  ContactSet got(1 << 16);
+  ContactSet want(1 << 16);
+  std::size_t pairs = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const Pose pose = random_pose(rng, 1.0);
+    const ReachMargins rule{0.02 * (trial % 3), 0.01 * (trial % 4), 0.01};
+    if (trial % 2 == 0) {
+      reused.place(pose, rule);
+    } else {
+      reused.place(pose, 0.05);
+    }
+    PlacedTool fresh(tool);
+    if (trial % 2 == 0) {
+      fresh.place(pose, rule);
+    } else {
+      fresh.place(pose, 0.05);
+    }
+    got.clear();
+    want.clear();
+    collide(reused, objects, kAllObjects, got);
+    collide(fresh, objects, kAllObjects, want);
+    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(got[i].gap, want[i].gap) << "trial " << trial;
+      EXPECT_EQ(got[i].object_node, want[i].object_node) << "trial " << trial;
+      EXPECT_EQ(got[i].tool_leaf, want[i].tool_leaf) << "trial " << trial;
+    }
+    pairs += got.size();
+    const ClosestPair a = closest(reused, objects, kAllObjects, 3.0);
+    const ClosestPair b = closest(fresh, objects, kAllObjects, 3.0);
+    EXPECT_EQ(a.gap, b.gap) << "trial " << trial;
+    EXPECT_EQ(a.object_node, b.object_node) << "trial " << trial;
+    // Every node at this pose, whether a query reached it or not.
+    const Mat3 rot = pose.q.toRotationMatrix();
+    for (std::size_t i = 0; i < tool.nodes.size(); ++i) {
+      const Vec3 world = pose.p + rot * tool.nodes[i].center.cast<double>();
+      EXPECT_EQ(reused.centers()[i], world) << "trial " << trial << " node " << i;
+      EXPECT_EQ(reused.radii()[i], fresh.radii()[i]) << "trial " << trial << " node " << i;
+    }
+  }
+  EXPECT_GT(pairs, 500u) << "the random scenes should produce pairs";
+}
+
 // Leaves of radius `r` (mm) along a wire: a straight shank from z = 0 to z = `length` (mm), then, with
 // `hook`, a quarter circle of radius 3 mm bending toward +x (an explorer's shape).
 std::vector<LeafSphere> wire_leaves(double length, float r, bool hook) {

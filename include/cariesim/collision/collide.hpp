@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -88,8 +89,28 @@ class ContactSet {
   std::size_t capped_count_ = 0;
 };
 
+/// Margins (mm) that grow with a tool leaf's reach, the distance (mm) of its centre from the tool
+/// frame's origin: (base + per_reach * reach) + extra, evaluated in that order; a negative or
+/// non-finite result counts as zero. A sub-step that may move the origin by `base` and turn the tool by
+/// `per_reach` rad moves a leaf by at most base + per_reach * reach.
+struct ReachMargins {
+  double base = 0.0;       ///< mm
+  double per_reach = 0.0;  ///< mm per mm of reach (rad); a negative one counts as zero
+  double extra = 0.0;      ///< mm
+  /// The margin (mm) of a leaf at `reach` mm.
+  [[nodiscard]] double at(double reach) const {
+    const double m = base + std::max(per_reach, 0.0) * reach + extra;
+    return std::isfinite(m) ? std::max(m, 0.0) : 0.0;
+  }
+};
+
 /// The tool placed in the world for one query: world-space copies of its nodes, plus a per-leaf
 /// margin (mm) by which each tool leaf is inflated (the largest distance it can move this sub-step).
+/// The nodes' world positions are made as the queries reach them: place() moves the root, and
+/// collide(), closest() and any_within() move an inner node's children when they split it. A query
+/// near the tip reaches a few dozen of the tree's nodes, and moving all of them twice a sub-step was a
+/// tenth of a lagging step (issue #11). The accessors of world positions (centers(), capsule_a(), ...)
+/// move whatever is left first, so what they return is always the whole tool at pose().
 class PlacedTool {
  public:
   explicit PlacedTool(const SphereTree& tool);
@@ -98,19 +119,41 @@ class PlacedTool {
   /// As above with a per-leaf margin table (size = tool leaf count; an empty table keeps the margins
   /// of the previous call). Negative or non-finite margins count as zero.
   void place(const Pose& pose, std::span<const double> leaf_margin);
+  /// As above with margins that grow with each leaf's reach. An inner node grows by the margin of the
+  /// farthest-reaching leaf below it, which is the largest of theirs, so each node's radius is made
+  /// when a query reaches it, like its centre.
+  void place(const Pose& pose, const ReachMargins& margins);
   [[nodiscard]] const SphereTree& tree() const { return *tool_; }
   [[nodiscard]] const Pose& pose() const { return pose_; }
-  [[nodiscard]] std::span<const Vec3> centers() const { return centers_; }             ///< world, per node
-  [[nodiscard]] std::span<const double> radii() const { return radii_; }               ///< per node, inflated
-  [[nodiscard]] std::span<const double> leaf_margins() const { return leaf_margin_; }  ///< mm, per leaf
+  [[nodiscard]] std::span<const Vec3> centers() const {  ///< world, per node
+    place_all();
+    return centers_;
+  }
+  [[nodiscard]] std::span<const double> radii() const {  ///< per node, inflated
+    place_all();
+    return radii_;
+  }
+  [[nodiscard]] std::span<const double> leaf_margins() const {  ///< mm, per leaf
+    place_all();
+    return leaf_margin_;
+  }
   /// A second bound for inner nodes whose leaves lie along a line (the explorer's shank and hook): a
   /// capsule, the segment from `a` to `a + d` (world) grown by `capsule_radii()` (mm, inflated like
   /// the node's sphere), holding every leaf below. Nodes where it is not tighter than the sphere have
   /// `has_capsule()` 0. collide() prunes a pair that misses either bound.
-  [[nodiscard]] std::span<const Vec3> capsule_a() const { return capsule_a_; }  ///< world, per node
-  [[nodiscard]] std::span<const Vec3> capsule_d() const { return capsule_d_; }  ///< world, per node
+  [[nodiscard]] std::span<const Vec3> capsule_a() const {  ///< world, per node
+    place_all();
+    return capsule_a_;
+  }
+  [[nodiscard]] std::span<const Vec3> capsule_d() const {  ///< world, per node
+    place_all();
+    return capsule_d_;
+  }
   [[nodiscard]] std::span<const double> capsule_inv_dd() const { return capsule_inv_dd_; }  ///< 1/mm²
-  [[nodiscard]] std::span<const double> capsule_radii() const { return capsule_radii_; }    ///< mm, inflated
+  [[nodiscard]] std::span<const double> capsule_radii() const {  ///< mm, inflated
+    place_all();
+    return capsule_radii_;
+  }
   [[nodiscard]] std::span<const uint8_t> has_capsule() const { return has_capsule_; }
   /// Per-leaf quotas of pairs per object for collide() (each capped by its `max_per_leaf`); an empty
   /// table (the default) leaves `max_per_leaf` alone. Size = tool leaf count.
@@ -131,13 +174,18 @@ class PlacedTool {
   [[nodiscard]] std::span<const uint32_t> leaves_below() const { return leaves_below_; }
   /// A fresh stamp for one object's traversal (the tables are cleared when the stamps wrap).
   uint32_t next_hit_stamp() const;
+  /// Moves the children of inner node `node` to the current pose (centres and capsules) unless this
+  /// placement already has: the queries call it before they split a tool node.
+  void reach_children(uint32_t node) const {
+    if (children_placed_[node] != place_stamp_) place_children(node);
+  }
 
  private:
   const SphereTree* tool_;
   Pose pose_;
-  std::vector<Vec3> centers_;
-  std::vector<double> radii_;                // inflated radii used for pruning and the pair test
-  std::vector<double> leaf_margin_;          // per leaf
+  mutable std::vector<Vec3> centers_;  // filled as the queries reach nodes (see the class comment)
+  mutable std::vector<double> radii_;        // inflated radii used for pruning and the pair test
+  mutable std::vector<double> leaf_margin_;  // per leaf
   std::vector<uint32_t> leaf_quota_;         // per leaf, or empty
   mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
   mutable std::vector<LeafHits> node_caps_;  // collide()'s per-node capped-leaf counters (scratch)
@@ -148,15 +196,29 @@ class PlacedTool {
   std::vector<Vec3> tool_capsule_a_;
   std::vector<Vec3> tool_capsule_d_;
   std::vector<double> tool_capsule_radius_;  // mm
-  std::vector<Vec3> capsule_a_;
-  std::vector<Vec3> capsule_d_;
-  std::vector<double> capsule_inv_dd_;  // 1/mm², 0 for a point
-  std::vector<double> capsule_radii_;   // mm
+  mutable std::vector<Vec3> capsule_a_;  // world copies, filled like centers_
+  mutable std::vector<Vec3> capsule_d_;
+  std::vector<double> capsule_inv_dd_;         // 1/mm², 0 for a point
+  mutable std::vector<double> capsule_radii_;  // mm
   std::vector<uint8_t> has_capsule_;
-  std::vector<uint32_t> capsule_nodes_;  // the nodes with a capsule
   void fit_capsules();
-  void place_capsules(const Mat3& rot);
+  // The world position of node i (centre, and capsule where it has one) at the current pose.
+  void place_node(std::size_t i) const;
+  void place_children(uint32_t node) const;
+  // Starts a placement: the root is moved, every other node waits for reach_children().
+  void start_placement(const Pose& pose);
+  void place_all() const;
   mutable uint32_t hit_stamp_ = 0;
+  // Lazy placement (see the class comment): the rotation of the current pose, and per inner node the
+  // placement whose stamp it carries when its children were moved.
+  Mat3 rot_ = Mat3::Identity();
+  uint32_t place_stamp_ = 0;
+  // Margins by reach (place(pose, ReachMargins)): radii and leaf margins are made with the centres.
+  bool reach_margins_ = false;
+  ReachMargins margins_;
+  std::vector<double> max_reach_;  // mm, per node: the largest reach of a leaf below it (its own)
+  mutable std::vector<uint32_t> children_placed_;
+  friend struct PlacedToolNodes;  // collide.cpp's queries: the world copies without place_all()
 };
 
 /// Pairs per (tool leaf, object) the haptic step asks collide() for: a large handle sphere pressed
