@@ -14,7 +14,6 @@ namespace cariesim::detail {
 
 CollisionScratch::CollisionScratch(const Model& model)
     : placed(model.tool.tree), contacts(model.capacities.contacts) {
-  leaf_margin.resize(model.tool.tree.leaf_count());
   order.resize(model.capacities.contacts);
   rank.resize(model.capacities.contacts);
   // Quotas per tool leaf: the full one within a region's radius of the tip, a smaller one beyond.
@@ -26,10 +25,10 @@ CollisionScratch::CollisionScratch(const Model& model)
   placed.set_leaf_quota(quota);
 }
 
-void set_leaf_margins(const Model& m, const ModelConstants& k, double trans, double rot,
-                      CollisionScratch& c) {
-  for (std::size_t i = 0; i < k.tool_leaves; ++i)
-    c.leaf_margin[i] = trans + rot * k.leaf_reach[i] + m.settings.contact_margin;
+void set_leaf_margins(const Model& m, double trans, double rot, CollisionScratch& c) {
+  // Each leaf's largest motion, trans + rot * reach, plus the contact margin; collide() sees the margin
+  // of a tool node only when it reaches the node (PlacedTool::place with ReachMargins).
+  c.margins = ReachMargins{trans, rot, m.settings.contact_margin};
 }
 
 PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g, const PairRef& p) {
@@ -127,7 +126,7 @@ bool listed_within(const Model& m, const ModelConstants& k, const CollisionScrat
 bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g0,
                    ObjectMask mask, PairSet& out) {
   // Every pair within its tool leaf's margin, a bounded number per (tool leaf, object).
-  c.placed.place(g0, c.leaf_margin);
+  c.placed.place(g0, c.margins);
   c.contacts.clear();
   collide(c.placed, m.objects, mask, c.contacts, kStepPairsPerToolLeaf, &c.budget);
   c.complete = c.contacts.truncated() ? 0 : mask;
@@ -245,8 +244,7 @@ Recheck recheck_rigid(const Model& m, const ModelConstants& k, CollisionScratch&
 
   // Overlaps beyond the tolerance: bring every such pair into the set, measured at the rows'
   // configuration like the others.
-  std::fill(c.leaf_margin.begin(), c.leaf_margin.end(), 0.0);
-  c.placed.place(g1, c.leaf_margin);
+  c.placed.place(g1, 0.0);
   c.contacts.clear();
   c.complete = 0;
   collide(c.placed, m.objects, rigid, c.contacts, kStepPairsPerToolLeaf, &c.budget);

@@ -91,8 +91,7 @@ struct ModelConstants {
   ObjectMask rigid_mask = 0;        ///< objects whose every leaf is of rigid material
   std::vector<Vec3> leaf_local;     ///< mm, tool leaf centres in the tool frame
   std::vector<double> leaf_radius;  ///< mm
-  std::vector<double> leaf_reach;   ///< mm, |leaf centre| (lever length)
-  double max_reach = 0.0;           ///< mm, largest leaf_reach
+  double max_reach = 0.0;           ///< mm, the largest |leaf centre| (lever length)
 };
 
 // Stage 1, collision (pairs.cpp): DESIGN.md §4 step 1.
@@ -134,7 +133,7 @@ struct CollisionScratch {
   explicit CollisionScratch(const Model& model);
   PlacedTool placed;
   ContactSet contacts;
-  std::vector<double> leaf_margin;  ///< mm, per tool leaf
+  ReachMargins margins;             ///< this sub-step's tool leaf margins (set_leaf_margins)
   std::vector<uint32_t> order;      ///< contact capacity
   std::vector<uint16_t> rank;       ///< contact capacity
   /// Objects whose every pair within the leaf margins of the last collect_pairs is in `contacts`
@@ -150,7 +149,7 @@ struct CollisionScratch {
 
 /// Every tool leaf's margin (mm): the largest distance it can move under a displacement bounded by
 /// `trans` (mm) and `rot` (rad), plus the model's contact margin.
-void set_leaf_margins(const Model& m, const ModelConstants& k, double trans, double rot, CollisionScratch& c);
+void set_leaf_margins(const Model& m, double trans, double rot, CollisionScratch& c);
 /// The geometry of pair `p` at configuration g. Rigid leaves, and leaves without tangent patches, are
 /// measured sphere against sphere; a compliant leaf against the tangent patch facing the tool while
 /// the tool lies over it (a caries leaf's wall patches excepted).

@@ -51,13 +51,11 @@ ModelConstants constants_of(const Model& model) {
   }
   k.leaf_local.resize(k.tool_leaves);
   k.leaf_radius.resize(k.tool_leaves);
-  k.leaf_reach.resize(k.tool_leaves);
   for (std::size_t i = 0; i < k.tool_leaves; ++i) {
     const SphereNode& node = model.tool.tree.nodes[model.tool.tree.leaf_nodes[i]];
     k.leaf_local[i] = node.center.cast<double>();
     k.leaf_radius[i] = node.radius;
-    k.leaf_reach[i] = k.leaf_local[i].norm();
-    k.max_reach = std::max(k.max_reach, k.leaf_reach[i]);
+    k.max_reach = std::max(k.max_reach, k.leaf_local[i].norm());
   }
   return k;
 }

@@ -72,7 +72,7 @@ bool slip_anchors(const Params& p, StateImpl& s, const Pose& g0, const Mat6& G, 
 Pose solve_substep(const Model& m, const Params& p, StateImpl& s, const Pose& g0, const SubstepRequest& req,
                    StepTrace& trace, bool& reached, SubstepMotion* wanted) {
   // Stage 1: pairs within reach of this sub-step's largest motion, measured at g0.
-  set_leaf_margins(m, s.constants, req.trans_bound, req.rot_bound, s.collision);
+  set_leaf_margins(m, req.trans_bound, req.rot_bound, s.collision);
   if (!collect_pairs(m, s.constants, s.collision, g0, req.mask, s.pairs)) trace.flags |= kFlagContactOverflow;
   if (req.tunnel == nullptr) mark_carried_pairs(m, s.constants, s.carried, req.mask, s.pairs);
 

@@ -141,7 +141,7 @@ TEST(CollectPairs, ReportsOverflow) {
   m.capacities.contacts = 4;
   State state(m, probe_at(Vec3(0, 0, 5)));
   StateImpl& s = state.impl();
-  set_leaf_margins(m, s.constants, 0.5, 0.0, s.collision);
+  set_leaf_margins(m, 0.5, 0.0, s.collision);
   EXPECT_FALSE(
       collect_pairs(m, s.constants, s.collision, probe_at(Vec3(0, 0, kTip + 0.01)), kAllObjects, s.pairs));
   EXPECT_TRUE(s.pairs.overflow);

@@ -91,7 +91,7 @@ double rigid_clearance(const Model& m, const Pose& tool) {
 }
 
 void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot) {
-  detail::set_leaf_margins(m, s.constants, trans, rot, s.collision);
+  detail::set_leaf_margins(m, trans, rot, s.collision);
   detail::collect_pairs(m, s.constants, s.collision, g, s.constants.all_mask, s.pairs);
 }
 
