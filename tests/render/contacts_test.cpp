@@ -2,9 +2,12 @@
 // regions, contact rows and the solve, with closed-form checks on a sphere over a plane.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -205,6 +208,49 @@ TEST(BuildRegions, OnePerObjectAndToolPointFoundedByTheDeepest) {
   const Region& floor = s.regions.regions[f];
   EXPECT_NEAR(floor.gap, -0.1, 1e-6);
   EXPECT_NEAR((floor.normal - Vec3::UnitZ()).norm(), 0.0, 1e-7);
+}
+
+// Issue #11: many pairs are sorted by buckets instead of std::sort; the pairs must come out in exactly
+// the order std::sort gives (the rows and regions follow it), for any count, with distinct gaps, with
+// equal ones (std::sort orders those its own way) and with gaps that are not finite.
+TEST(BuildRegions, OrdersThePairsAsStdSortWould) {
+  const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state.impl();
+  test::collect(m, s, probe_at(Vec3(0.0, 0.0, kTip - 0.1)), 0.01);
+  ASSERT_GT(s.pairs.count, 0);
+  const PairRef ref = s.pairs.refs[0];
+  const PairGeometry geo = s.pairs.geometry[0];
+  std::mt19937 rng(5);
+  std::normal_distribution<double> gap(0.0, 0.2);  // mm
+  const std::array<int, 9> counts{1, 2, 16, 31, 32, 33, 100, 260, kMaxPairs};
+  int sorted_with_ties = 0;
+  for (int kind = 0; kind < 4; ++kind) {
+    for (const int n : counts) {
+      s.pairs.count = n;
+      for (int i = 0; i < n; ++i) {
+        s.pairs.refs[i] = ref;
+        s.pairs.geometry[i] = geo;
+        double& g = s.pairs.geometry[i].gap;
+        g = gap(rng);
+        if (kind == 1) g = std::round(g * 50.0) / 50.0;  // many equal gaps
+        if (kind == 2 && i % 7 == 3) g = s.pairs.geometry[i / 2].gap;  // a few
+        if (kind == 3 && i == n / 2) g = i % 2 == 0 ? std::numeric_limits<double>::infinity() : -1e300;
+      }
+      std::vector<std::pair<double, int>> want(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) want[static_cast<std::size_t>(i)] = {s.pairs.geometry[i].gap, i};
+      std::sort(want.begin(), want.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      build_regions(m, s.constants, s.pairs, s.regions);
+      bool ties = false;
+      for (int j = 0; j < n; ++j) {
+        EXPECT_EQ(s.regions.order[j], want[static_cast<std::size_t>(j)].second)
+            << "kind " << kind << " n " << n << " position " << j;
+        ties = ties || (j > 0 && want[static_cast<std::size_t>(j)].first == want[static_cast<std::size_t>(j - 1)].first);
+      }
+      sorted_with_ties += ties && n >= 32;
+    }
+  }
+  EXPECT_GE(sorted_with_ties, 8) << "the equal gaps should reach the bucket sort";
 }
 
 // Rigid contact rows: the linearised gap n·dp + (a × n)·dθ >= -gap, rigid (no compliance), keyed in
