@@ -227,21 +227,35 @@ void traverse(const Query& q, ContactSet& out) {
     // the stack far-to-near, so that a tool leaf's quota fills with its nearest pairs first.
     std::array<DistPair, kMaxChildren> kids;
     int kid_count = 0;
-    for (uint32_t child = split.first; child < end; ++child) {
-      const uint32_t t = split_tool ? child : pair.tool;
-      const uint32_t o = split_tool ? pair.object : child;
-      // A tool node whose leaves are all capped for this object needs no more tests.
-      if (split_tool && all_capped(q, t)) continue;
-      const double d2 = distance2(q, t, o);
-      if (!overlaps(q, t, o, d2) || !capsule_overlaps(q, t, o)) continue;
-      if (kid_count < static_cast<int>(kids.size())) {
-        kids[kid_count++] = {d2, t, o};
-      } else if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
-        emit(q, t, o, out);  // more children than build_hierarchy makes: the rest unsorted
-      } else if (top < kStackSize) {
-        stack[top++] = {t, o};
-      } else {
-        out.mark_overflow();
+    if (!split_tool && split.count <= kMaxChildren) {
+      // An object node split against one tool node (most splits): the same tests, kept without a
+      // branch on their outcome, which a descent through a tooth's small leaves cannot predict
+      // (issue #11). A tool leaf has no capsule, so that test's branch is predictable.
+      const bool capsule = q.has_cap[pair.tool] != 0;
+      for (uint32_t child = split.first; child < end; ++child) {
+        const double d2 = distance2(q, pair.tool, child);
+        const bool in_sphere = overlaps(q, pair.tool, child, d2);
+        const bool in_capsule = !capsule || capsule_overlaps(q, pair.tool, child);
+        kids[kid_count] = {d2, pair.tool, child};
+        kid_count += static_cast<int>(in_sphere & in_capsule);
+      }
+    } else {
+      for (uint32_t child = split.first; child < end; ++child) {
+        const uint32_t t = split_tool ? child : pair.tool;
+        const uint32_t o = split_tool ? pair.object : child;
+        // A tool node whose leaves are all capped for this object needs no more tests.
+        if (split_tool && all_capped(q, t)) continue;
+        const double d2 = distance2(q, t, o);
+        if (!overlaps(q, t, o, d2) || !capsule_overlaps(q, t, o)) continue;
+        if (kid_count < static_cast<int>(kids.size())) {
+          kids[kid_count++] = {d2, t, o};
+        } else if (q.tool_nodes[t].is_leaf() && q.object_nodes[o].is_leaf()) {
+          emit(q, t, o, out);  // more children than build_hierarchy makes: the rest unsorted
+        } else if (top < kStackSize) {
+          stack[top++] = {t, o};
+        } else {
+          out.mark_overflow();
+        }
       }
     }
     sort_far_first(kids.data(), kid_count);
