@@ -110,11 +110,13 @@ struct ReachMargins {
 /// collide(), closest() and any_within() move an inner node's children when they split it. A query
 /// near the tip reaches a few dozen of the tree's nodes, and moving all of them twice a sub-step was a
 /// tenth of a lagging step (issue #11). The accessors of world positions (centers(), capsule_a(), ...)
-/// move whatever is left first, so what they return is always the whole tool at pose().
+/// move whatever is left first, so what they return is always the whole tool at pose(). Queries
+/// write a placed tool's scratch (these world copies, the quota counters): one thread uses it at a time.
 class PlacedTool {
  public:
   explicit PlacedTool(const SphereTree& tool);
-  /// Transforms every tool node by `pose`; `margin` inflates every leaf (and its ancestors).
+  /// Places the tool at `pose` (its nodes move as the queries reach them); `margin` inflates every
+  /// leaf (and its ancestors).
   void place(const Pose& pose, double margin);
   /// As above with a per-leaf margin table (size = tool leaf count; an empty table keeps the margins
   /// of the previous call). Negative or non-finite margins count as zero.
@@ -174,8 +176,9 @@ class PlacedTool {
   [[nodiscard]] std::span<const uint32_t> leaves_below() const { return leaves_below_; }
   /// A fresh stamp for one object's traversal (the tables are cleared when the stamps wrap).
   uint32_t next_hit_stamp() const;
-  /// Moves the children of inner node `node` to the current pose (centres and capsules) unless this
-  /// placement already has: the queries call it before they split a tool node.
+  /// Moves the children of inner node `node` to the current pose (centres, capsules, and with margins
+  /// by reach their radii and leaf margins) unless this placement already has: the queries call it
+  /// before they split a tool node.
   void reach_children(uint32_t node) const {
     if (children_placed_[node] != place_stamp_) place_children(node);
   }
