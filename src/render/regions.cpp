@@ -18,13 +18,13 @@ namespace {
 // From this many pairs on, the keys are sorted by buckets (below it std::sort is as fast).
 constexpr int kBucketSortFrom = 32;
 
-// Sorts keys[0..n) by gap into the one order any sort gives when the gaps are distinct: spread over n
-// buckets linear in the gap, then finished by insertion (the result is nearly sorted). Returns false,
-// with the keys in some order, when it cannot promise std::sort's order: two equal gaps (std::sort
-// orders those its own way), or a gap that is not finite. Issue #11: std::sort's comparisons of
-// unordered gaps mispredict, and on the sweep's slowest steps (70-260 pairs) it took 8 % of the step;
-// this takes about 2.5 times less there.
-bool bucket_sort(RegionSet::GapKey* keys, int n, RegionSet::GapKey* bucketed, uint16_t* bucket_end) {
+// Sorts keys[0..n) by gap into `sorted`, in the one order any sort gives when the gaps are distinct:
+// spread over n buckets linear in the gap, then finished by insertion (the result is nearly sorted).
+// Returns false when it cannot promise std::sort's order: two equal gaps (std::sort orders those its
+// own way), or a gap that is not finite. Issue #11: std::sort's comparisons of unordered gaps
+// mispredict, and on the sweep's slowest steps (70-260 pairs) it took 8 % of the step; this takes
+// about 2.5 times less there.
+bool bucket_sort(const RegionSet::GapKey* keys, int n, RegionSet::GapKey* sorted, uint16_t* bucket_end) {
   double lo = keys[0].gap, hi = keys[0].gap;  // mm
   for (int i = 1; i < n; ++i) {
     lo = std::min(lo, keys[i].gap);
@@ -36,15 +36,15 @@ bool bucket_sort(RegionSet::GapKey* keys, int n, RegionSet::GapKey* bucketed, ui
   std::fill(bucket_end, bucket_end + n + 1, uint16_t{0});
   for (int i = 0; i < n; ++i) ++bucket_end[bucket(keys[i].gap) + 1];
   for (int b = 0; b < n; ++b) bucket_end[b + 1] = static_cast<uint16_t>(bucket_end[b + 1] + bucket_end[b]);
-  for (int i = 0; i < n; ++i) bucketed[bucket_end[bucket(keys[i].gap)]++] = keys[i];
-  for (int i = 0; i < n; ++i) {
-    const RegionSet::GapKey moving = bucketed[i];
+  for (int i = 0; i < n; ++i) sorted[bucket_end[bucket(keys[i].gap)]++] = keys[i];
+  for (int i = 1; i < n; ++i) {
+    const RegionSet::GapKey moving = sorted[i];
     int j = i;
-    for (; j > 0 && moving.gap < keys[j - 1].gap; --j) keys[j] = keys[j - 1];
-    keys[j] = moving;
+    for (; j > 0 && moving.gap < sorted[j - 1].gap; --j) sorted[j] = sorted[j - 1];
+    sorted[j] = moving;
   }
   for (int i = 1; i < n; ++i)
-    if (keys[i].gap == keys[i - 1].gap) return false;
+    if (sorted[i].gap == sorted[i - 1].gap) return false;
   return true;
 }
 
@@ -56,17 +56,15 @@ void build_regions(const Model& m, const ModelConstants& k, const PairSet& pairs
   // alone, so pairs of equal gap come out in the order an index sort would give. Many pairs of
   // distinct gaps are sorted by buckets, into the same order.
   out.pairs = pairs.count;
-  const auto make_keys = [&] {
-    for (int i = 0; i < pairs.count; ++i) out.keys[i] = {pairs.geometry[i].gap, static_cast<int16_t>(i)};
-  };
-  make_keys();
+  for (int i = 0; i < pairs.count; ++i) out.keys[i] = {pairs.geometry[i].gap, static_cast<int16_t>(i)};
+  const RegionSet::GapKey* sorted = out.bucketed.data();
   if (pairs.count < kBucketSortFrom ||
       !bucket_sort(out.keys.data(), pairs.count, out.bucketed.data(), out.bucket_end.data())) {
-    make_keys();
     std::sort(out.keys.begin(), out.keys.begin() + pairs.count,
               [](const RegionSet::GapKey& a, const RegionSet::GapKey& b) { return a.gap < b.gap; });
+    sorted = out.keys.data();
   }
-  for (int i = 0; i < pairs.count; ++i) out.order[i] = out.keys[i].pair;
+  for (int i = 0; i < pairs.count; ++i) out.order[i] = sorted[i].pair;
 
   // Group into regions: same object, tool points within kRegionRadius. The deepest pair founds it.
   out.count = 0;

@@ -215,7 +215,7 @@ struct RegionSet {
     int16_t pair;
   };
   std::array<GapKey, kMaxPairs> keys{};
-  std::array<GapKey, kMaxPairs> bucketed{};           ///< scratch of the sort: the keys by bucket
+  std::array<GapKey, kMaxPairs> bucketed{};           ///< scratch of the sort: the keys sorted by buckets
   std::array<uint16_t, kMaxPairs + 1> bucket_end{};  ///< scratch of the sort: where each bucket ends
   std::array<int16_t, kMaxPairs> pair_region{};  ///< region of each pair, -1 for none (a wall, or full)
   int pairs = 0;  ///< pairs the set was built from (forced pairs added later belong to no region yet)
