@@ -16,6 +16,8 @@ CollisionScratch::CollisionScratch(const Model& model)
     : placed(model.tool.tree), contacts(model.capacities.contacts) {
   order.resize(model.capacities.contacts);
   rank.resize(model.capacities.contacts);
+  group_objects = model.objects.size();
+  group_end.resize(model.tool.tree.leaf_count() * group_objects + 1);
   // Quotas per tool leaf: the full one within a region's radius of the tip, a smaller one beyond.
   const SphereTree& tool = model.tool.tree;
   std::vector<uint32_t> quota(tool.leaf_count(), kStepPairsPerToolLeaf);
@@ -115,6 +117,40 @@ double listed_worst(const Model& m, const ModelConstants& k, CollisionScratch& c
 
 }  // namespace
 
+bool group_pairs(CollisionScratch& c, std::size_t found, std::span<uint32_t> order) {
+  const std::size_t objects = c.group_objects;
+  const std::size_t groups = c.group_end.size() - 1;
+  const auto group = [&](const Contact& con) { return std::size_t{con.tool_leaf} * objects + con.object; };
+  uint32_t* end = c.group_end.data();
+  std::fill(end, end + groups + 1, uint32_t{0});
+  for (std::size_t i = 0; i < found; ++i) {
+    const Contact& con = c.contacts[i];
+    if (con.object >= objects || group(con) >= groups) return false;
+    ++end[group(con) + 1];
+  }
+  for (std::size_t g = 0; g < groups; ++g) end[g + 1] += end[g];
+  for (std::size_t i = 0; i < found; ++i) order[end[group(c.contacts[i])]++] = static_cast<uint32_t>(i);
+  // The groups are in order, so an insertion by (group, gap) moves each pair only within its group.
+  for (std::size_t i = 1; i < found; ++i) {
+    const uint32_t moving = order[i];
+    const Contact& x = c.contacts[moving];
+    const std::size_t gx = group(x);
+    std::size_t j = i;
+    for (; j > 0; --j) {
+      const Contact& y = c.contacts[order[j - 1]];
+      if (group(y) != gx || !(x.gap < y.gap)) break;
+      order[j] = order[j - 1];
+    }
+    order[j] = moving;
+  }
+  for (std::size_t i = 1; i < found; ++i) {
+    const Contact& x = c.contacts[order[i - 1]];
+    const Contact& y = c.contacts[order[i]];
+    if (group(x) == group(y) && !(x.gap < y.gap)) return false;
+  }
+  return true;
+}
+
 bool listed_within(const Model& m, const ModelConstants& k, const CollisionScratch& c, const Pose& g,
                    double reach_mm) {
   const Mat3 rot = g.q.toRotationMatrix();
@@ -149,14 +185,16 @@ bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c,
   // nearest pairs, the same number for all, as many as fit; a crowd of deep pairs (a handle in soft
   // tissue) then cannot push out the few that hold the tip on a lesion's surface.
   std::span<uint32_t> order(c.order.data(), found);
-  for (std::size_t i = 0; i < found; ++i) order[i] = static_cast<uint32_t>(i);
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    const Contact& x = c.contacts[a];
-    const Contact& y = c.contacts[b];
-    if (x.tool_leaf != y.tool_leaf) return x.tool_leaf < y.tool_leaf;
-    if (x.object != y.object) return x.object < y.object;
-    return x.gap < y.gap;
-  });
+  if (!group_pairs(c, found, order)) {
+    for (std::size_t i = 0; i < found; ++i) order[i] = static_cast<uint32_t>(i);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      const Contact& x = c.contacts[a];
+      const Contact& y = c.contacts[b];
+      if (x.tool_leaf != y.tool_leaf) return x.tool_leaf < y.tool_leaf;
+      if (x.object != y.object) return x.object < y.object;
+      return x.gap < y.gap;
+    });
+  }
   std::array<int, kStepPairsPerToolLeaf + 1> per_rank{};
   for (std::size_t i = 0; i < found; ++i) {
     const bool same = i > 0 && c.contacts[order[i]].tool_leaf == c.contacts[order[i - 1]].tool_leaf &&

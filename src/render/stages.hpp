@@ -136,6 +136,10 @@ struct CollisionScratch {
   ReachMargins margins;             ///< this sub-step's tool leaf margins (set_leaf_margins)
   std::vector<uint32_t> order;      ///< contact capacity
   std::vector<uint16_t> rank;       ///< contact capacity
+  /// Where each (tool leaf, object) group ends in `order` (tool leaves x objects + 1; collect_pairs'
+  /// counting sort), and the objects it was sized for.
+  std::vector<uint32_t> group_end;
+  std::size_t group_objects = 0;
   /// Objects whose every pair within the leaf margins of the last collect_pairs is in `contacts`
   /// (none truncated): the re-check and the backtrack of that sub-step read their pairs from there
   /// instead of traversing the trees again. Cleared when `contacts` is reused for another query.
@@ -159,6 +163,14 @@ PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g
 /// Returns false on overflow.
 bool collect_pairs(const Model& m, const ModelConstants& k, CollisionScratch& c, const Pose& g0,
                    ObjectMask mask, PairSet& out);
+/// collect_pairs' order when more pairs qualify than kMaxPairs: the first `found` contacts of
+/// c.contacts by (tool leaf, object, gap) into `order`, by counting on (tool leaf, object) and
+/// inserting each of those groups (at most a quota of pairs) by gap. With distinct gaps in every group
+/// that is the one order any sort gives; returns false (order unspecified) when a group holds two
+/// equal or unordered (NaN) gaps, which std::sort orders its own way, so that the caller sorts with it.
+/// Issue #11: std::sort of those 513-1 024 pairs was a seventh of the 4 kHz steps of servo-touch-46
+/// whose working end is pressed into lesion #1's caries (30 tool leaves, 16 pairs each).
+bool group_pairs(CollisionScratch& c, std::size_t found, std::span<uint32_t> order);
 
 /// What the re-check at a solution found.
 struct Recheck {

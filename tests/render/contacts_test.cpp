@@ -253,6 +253,72 @@ TEST(BuildRegions, OrdersThePairsAsStdSortWould) {
   EXPECT_GE(sorted_with_ties, 8) << "the equal gaps should reach the bucket sort";
 }
 
+// Issue #11: when more pairs qualify than kMaxPairs, collect_pairs orders them by (tool leaf, object,
+// gap) by counting and insertion instead of std::sort; the order must be exactly std::sort's (the
+// fair share and the rows follow it). Where std::sort's order is not unique (two equal or NaN gaps in
+// one (tool leaf, object)) group_pairs must say so, so that collect_pairs sorts with std::sort.
+TEST(CollectPairs, GroupsThePairsAsStdSortWould) {
+  test::SlabSpec spec;
+  spec.x0 = spec.y0 = -2.0;
+  spec.x1 = spec.y1 = 2.0;
+  const auto leaves = test::slab(spec, [](const Vec3&) { return 0; });
+  const Model m = test::model({test::object("a", leaves, ObjectKind::Soft), test::object("b", leaves, ObjectKind::Soft),
+                               test::object("c", leaves, ObjectKind::Soft)},
+                              {test::soft(1.0)});
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  CollisionScratch& c = state.impl().collision;
+  const auto tool_leaves = static_cast<int>(m.tool.tree.leaf_count());
+  const int objects = static_cast<int>(m.objects.size());
+  ASSERT_GT(tool_leaves, 4);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> gap(0.0, 0.2);  // mm
+  const std::array<std::size_t, 6> counts{1, 2, 17, 200, kMaxPairs + 1, c.contacts.capacity()};
+  std::vector<uint32_t> order(c.contacts.capacity()), want(c.contacts.capacity());
+  // kind 0: distinct gaps; 1: two equal gaps in one group; 2: equal gaps only across groups; 3: a NaN.
+  for (int kind = 0; kind < 4; ++kind) {
+    for (const std::size_t n : counts) {
+      c.contacts.clear();
+      for (std::size_t i = 0; i < n; ++i) {
+        Contact con;
+        con.object_node = static_cast<uint32_t>(i);
+        con.tool_leaf = static_cast<uint16_t>(rng() % static_cast<unsigned>(tool_leaves));
+        con.object = static_cast<uint16_t>(rng() % static_cast<unsigned>(objects));
+        con.gap = gap(rng);
+        if (kind == 2) {  // group i % 7, gap by i / 7: equal gaps in different groups only
+          con.tool_leaf = static_cast<uint16_t>((i % 7) / 3 + 1);
+          con.object = static_cast<uint16_t>((i % 7) % 3);
+          con.gap = 0.01 * static_cast<double>(i / 7);
+        }
+        if (kind == 1 && i == n - 1 && n > 1) {  // the same group and gap as the first pair
+          con.tool_leaf = c.contacts[0].tool_leaf;
+          con.object = c.contacts[0].object;
+          con.gap = c.contacts[0].gap;
+        }
+        if (kind == 3 && i == n / 2) {  // in the first pair's group, unless it is the first pair
+          con.gap = std::numeric_limits<double>::quiet_NaN();
+          if (i > 0) con.tool_leaf = c.contacts[0].tool_leaf, con.object = c.contacts[0].object;
+        }
+        c.contacts.push(con);
+      }
+      ASSERT_EQ(c.contacts.size(), n);
+      for (std::size_t i = 0; i < n; ++i) want[i] = static_cast<uint32_t>(i);
+      std::sort(want.begin(), want.begin() + static_cast<std::ptrdiff_t>(n), [&](uint32_t a, uint32_t b) {
+        const Contact& x = c.contacts[a];
+        const Contact& y = c.contacts[b];
+        if (x.tool_leaf != y.tool_leaf) return x.tool_leaf < y.tool_leaf;
+        if (x.object != y.object) return x.object < y.object;
+        return x.gap < y.gap;
+      });
+      const bool exact = group_pairs(c, n, std::span<uint32_t>(order.data(), n));
+      const bool unique = kind == 0 || kind == 2 || (kind == 1 && n == 1) || (kind == 3 && n == 1);
+      EXPECT_EQ(exact, unique) << "kind " << kind << " n " << n;
+      if (!exact) continue;
+      for (std::size_t j = 0; j < n; ++j)
+        ASSERT_EQ(order[j], want[j]) << "kind " << kind << " n " << n << " position " << j;
+    }
+  }
+}
+
 // Rigid contact rows: the linearised gap n·dp + (a × n)·dθ >= -gap, rigid (no compliance), keyed in
 // the contact key space, at most kMaxRowsPerGroup per (tool leaf, object) with distinct normals.
 TEST(ContactRows, RigidRowsAreTheLinearisedGap) {
