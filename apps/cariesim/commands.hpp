@@ -26,6 +26,8 @@ inline CLI::Validator finite_range(double min, double max) {
 
 /// Adds `--spin-us` (ServoOptions::spin_us) to a subcommand that runs the servo loop.
 void add_spin_option(CLI::App* sub, double& spin_us);
+/// Adds `--no-standby` (ServoOptions::standby off) to a subcommand that runs the servo loop.
+void add_standby_option(CLI::App* sub, bool& no_standby);
 
 /// Subcommands and what to run for each; the default (no subcommand) runs `fallback`.
 class Registry {

@@ -32,6 +32,7 @@ struct RunArgs {
   bool show_lesions = false;
   bool no_realtime = false;
   double spin_us = kDefaultSpinUs;   // µs polled before each deadline
+  bool no_standby = false;           // no standby servo thread (ServoOptions::standby)
   std::string view;                  // camera preset; empty: the whole scene framed
   std::vector<int> size{1280, 800};  // px, the window's width and height
   bool trainee = false;
@@ -58,6 +59,7 @@ int run_simulator(const RunArgs& args) {
   options.show_lesions = args.show_lesions;
   options.realtime = !args.no_realtime;
   options.spin_us = args.spin_us;
+  options.standby = !args.no_standby;
   options.view = args.view;
   options.width = args.size[0];
   options.height = args.size[1];
@@ -129,6 +131,7 @@ void register_run(CLI::App& app, Registry& registry) {
       ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
   add_spin_option(sub, args->spin_us);
+  add_standby_option(sub, args->no_standby);
   registry.add(sub, [args] { return run_simulator(*args); });
   registry.set_default([args] { return run_simulator(*args); });
 }

@@ -32,6 +32,7 @@ struct ServoArgs {
   double force_scale = 1.0;  // global force scale in [0, 1]
   bool no_realtime = false;
   double spin_us = kDefaultSpinUs;  // µs polled before each deadline
+  bool no_standby = false;          // no standby servo thread (ServoOptions::standby)
   bool quiet = false;
 };
 
@@ -60,12 +61,13 @@ void print_report(Session& session) {
   const TimingReport r = loop.timing();
   std::fprintf(stderr,
                "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns, %llu steps cut short by the "
-               "work budget; real-time: %s; polls the last %.0f us of each wait\n"
+               "work budget, %llu cycles run by the standby thread; real-time: %s; polls the last %.0f us of "
+               "each wait\n"
                "  step time (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n"
                "  jitter    (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n",
                static_cast<unsigned long long>(r.cycles), r.rate_hz, 1.0 / loop.dt(),
                static_cast<unsigned long long>(r.overruns), static_cast<unsigned long long>(r.work_budget),
-               loop.realtime_status().c_str(), loop.spin_us(), r.step_p50, r.step_p99, r.step_p999,
+               static_cast<unsigned long long>(r.standby_cycles), loop.realtime_status().c_str(), loop.spin_us(), r.step_p50, r.step_p99, r.step_p999,
                r.step_max, r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
   const Params& params = session.params();
   std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm%s\n",
@@ -101,6 +103,7 @@ int run_servo(const ServoArgs& args) {
   options.rate_hz = args.rate;
   options.realtime = !args.no_realtime;
   options.spin_us = args.spin_us;
+  options.standby = !args.no_standby;
   options.safety.force_scale = args.force_scale;
   options.record = args.record;
   options.recorder.overwrite = args.overwrite;
@@ -165,6 +168,12 @@ void add_spin_option(CLI::App* sub, double& spin_us) {
       ->capture_default_str();
 }
 
+void add_standby_option(CLI::App* sub, bool& no_standby) {
+  sub->add_flag("--no-standby", no_standby,
+                "No standby servo thread on a second CPU (it runs the cycles the servo thread's CPU was "
+                "taken from)");
+}
+
 void register_servo(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<ServoArgs>();
   CLI::App* sub = app.add_subcommand("servo", "Run the real-time servo loop with a device, without a window");
@@ -184,6 +193,7 @@ void register_servo(CLI::App& app, Registry& registry) {
       ->capture_default_str();
   sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for SCHED_FIFO priority");
   add_spin_option(sub, args->spin_us);
+  add_standby_option(sub, args->no_standby);
   sub->add_flag("--quiet", args->quiet, "Only the final report");
   registry.add(sub, [args] { return run_servo(*args); });
 }

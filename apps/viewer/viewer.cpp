@@ -221,6 +221,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   session_options.rate_hz = options_.rate_hz;
   session_options.realtime = options_.realtime;
   session_options.spin_us = options_.spin_us;
+  session_options.standby = options_.standby;
   if (trial && run_) {
     // A study trial records itself where the run says; an answers entry may give its own device.
     session_options.record = run_->recording_path().string();

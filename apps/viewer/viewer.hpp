@@ -22,6 +22,7 @@ struct ViewerOptions {
   bool show_lesions = false;        ///< start with the lesions revealed (hidden is a trial's default)
   bool realtime = true;             ///< ask for real-time priority for the servo thread
   double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)
+  bool standby = true;              ///< a standby servo thread on a second CPU (ServoOptions)
   int width = 1280;                 ///< px, window width
   int height = 800;                 ///< px, window height
   /// Camera preset on the explorer's tip once it is drawn (occlusal | buccal | lingual | operator);

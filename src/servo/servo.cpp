@@ -49,6 +49,27 @@ PublishedParams starting_params(const Model& model, Device& device, const ServoO
   return p;
 }
 
+// The two highest-numbered CPUs this process may run on ({servo, standby}), or {-1, -1} when it may
+// run on only one.
+std::array<int, 2> two_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0) return {-1, -1};
+  std::array<int, 2> cpus{-1, -1};
+  int found = 0;
+  for (int cpu = CPU_SETSIZE - 1; cpu >= 0 && found < 2; --cpu)
+    if (CPU_ISSET(cpu, &set)) cpus[found++] = cpu;
+  return found == 2 ? cpus : std::array<int, 2>{-1, -1};
+}
+
+// Pins a thread to one CPU; false when refused.
+bool pin(std::thread& thread, int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  return pthread_setaffinity_np(thread.native_handle(), sizeof set, &set) == 0;
+}
+
 }  // namespace
 
 void check_servo_rate(double rate_hz) {
@@ -145,22 +166,42 @@ void ServoLoop::start() {
   if (running_.load()) return;
   device_.start();
   safety_.reset();
+  // The deadline grid starts now; the servo clock continues where the last run stopped.
+  start_ns_ = monotonic_ns();
+  elapsed_base_ = elapsed_.load(std::memory_order_relaxed);
+  last_t_ = time_base_ - dt_;
+  rate_mark_ns_ = start_ns_;
+  rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
+  measured_rate_ = options_.rate_hz;
+  next_cycle_.store(0, std::memory_order_relaxed);
+  cpus_ = options_.standby ? two_cpus() : std::array<int, 2>{-1, -1};
   running_.store(true);
-  thread_ = std::thread([this] { run(); });
-  // Ask for real-time priority for the servo thread, and say what happened.
+  thread_ = std::thread([this] { run(0); });
+  if (cpus_[1] >= 0) standby_thread_ = std::thread([this] { run(1); });
+
+  // Each thread on its own CPU (with a standby), at real-time priority when asked; say what happened.
+  std::string cpus;
+  if (cpus_[1] >= 0) {
+    const bool pinned = pin(thread_, cpus_[0]) && pin(standby_thread_, cpus_[1]);
+    cpus = "; standby thread on CPU " + std::to_string(cpus_[1]) + ", servo thread on CPU " +
+           std::to_string(cpus_[0]) + (pinned ? "" : " (pinning refused)");
+  } else {
+    cpus = options_.standby ? "; no standby thread (one CPU)" : "; no standby thread";
+  }
   if (!options_.realtime) {
-    realtime_status_ = "not requested (normal priority)";
+    realtime_status_ = "not requested (normal priority)" + cpus;
     return;
   }
   sched_param sp{};
   sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
                                  sched_get_priority_max(SCHED_FIFO));
-  const int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
+  int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
+  if (rc == 0 && standby_thread_.joinable()) rc = pthread_setschedparam(standby_thread_.native_handle(), SCHED_FIFO, &sp);
   if (rc == 0) {
-    realtime_status_ = "SCHED_FIFO priority " + std::to_string(sp.sched_priority);
+    realtime_status_ = "SCHED_FIFO priority " + std::to_string(sp.sched_priority) + cpus;
   } else {
     realtime_status_ = std::string("refused: ") + std::strerror(rc) +
-                       " (needs CAP_SYS_NICE or an rtprio limit); normal priority";
+                       " (needs CAP_SYS_NICE or an rtprio limit); normal priority" + cpus;
     spdlog::warn("servo: real-time priority {}", realtime_status_);
   }
 }
@@ -168,6 +209,12 @@ void ServoLoop::start() {
 void ServoLoop::stop() {
   if (!running_.exchange(false)) return;
   thread_.join();
+  if (standby_thread_.joinable()) standby_thread_.join();
+  // Leave the device with no force, and continue the servo clock at the next start.
+  device_.set_status(
+      DeviceStatus{state_code(state_->interaction()), state_->depth(), 0, 0, limits_announced_});
+  device_.write(Vec3::Zero(), Vec3::Zero());
+  time_base_ = last_t_ + dt_;
   device_.stop();
 }
 
@@ -186,38 +233,52 @@ TimingReport ServoLoop::timing() const {
   r.cycles = cycles_.load();
   r.overruns = overruns_.load();
   r.work_budget = work_budget_.load();
+  r.standby_cycles = standby_cycles_.load();
   const double elapsed = elapsed_.load();
   r.rate_hz = elapsed > 0.0 ? static_cast<double>(r.cycles) / elapsed : 0.0;
   return r;
 }
 
-void ServoLoop::run() {
-  const int64_t start_ns = monotonic_ns();
-  const double elapsed_before = elapsed_.load(std::memory_order_relaxed);
-  int64_t deadline = start_ns;
-  double t = time_base_;
-  rate_mark_ns_ = start_ns;
-  rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
-  measured_rate_ = options_.rate_hz;
+void ServoLoop::run(int role) {
+  // The servo thread (role 0) waits for each deadline, polling the clock for its last spin_ns_. The
+  // standby (role 1) sleeps to a quarter period after it and runs the cycle only if the servo thread
+  // has not claimed it by then: the hypervisor took its core away, or it was woken late.
+  const int64_t delay = role == 0 ? 0 : period_ns_ / 4;
+  const int64_t spin = role == 0 ? spin_ns_ : 0;
+  const auto deadline_of = [&](uint64_t index) { return start_ns_ + static_cast<int64_t>(index) * period_ns_; };
   while (running_.load(std::memory_order_relaxed)) {
-    // Wait for the absolute deadline, polling the clock for its last spin_ns_; how late we woke is
-    // the jitter.
-    wait_until_ns(deadline, spin_ns_);
+    const uint64_t seen = next_cycle_.load(std::memory_order_acquire);
+    if ((seen & kCycleBusy) != 0) {
+      // A cycle is under way on the other thread: look again when the next one is due, or a quarter
+      // period from now when it is due already (the cycle under way has overrun).
+      const int64_t due = deadline_of((seen & ~kCycleBusy) + 1) + delay;
+      const int64_t now = monotonic_ns();
+      if (due > now)
+        wait_until_ns(due, spin);
+      else
+        sleep_until_ns(now + period_ns_ / 4);
+      continue;
+    }
+    const int64_t deadline = deadline_of(seen);
+    wait_until_ns(deadline + delay, spin);
+    uint64_t expected = seen;
+    if (!next_cycle_.compare_exchange_strong(expected, seen | kCycleBusy, std::memory_order_acq_rel,
+                                             std::memory_order_relaxed))
+      continue;  // the other thread claimed it first
+    // How late the cycle starts after its deadline is the jitter.
     const int64_t wake = monotonic_ns();
     jitter_hist_.add(static_cast<double>(wake - deadline) * 1e-3);
-    t = time_base_ + static_cast<double>(deadline - start_ns) * 1e-9;
+    if (role != 0) bump(standby_cycles_);
+    const double t = time_base_ + static_cast<double>(deadline - start_ns_) * 1e-9;
     const int64_t end = cycle(t, deadline, wake);
+    last_t_ = t;
+    elapsed_.store(elapsed_base_ + static_cast<double>(end - start_ns_) * 1e-9, std::memory_order_relaxed);
 
     // The next deadline, one fixed period on; skip the ones already missed by more than a period.
-    deadline += period_ns_;
-    if (end - deadline > period_ns_) deadline += (end - deadline) / period_ns_ * period_ns_;
-    elapsed_.store(elapsed_before + static_cast<double>(end - start_ns) * 1e-9, std::memory_order_relaxed);
+    int64_t next = deadline + period_ns_;
+    if (end - next > period_ns_) next += (end - next) / period_ns_ * period_ns_;
+    next_cycle_.store(static_cast<uint64_t>((next - start_ns_) / period_ns_), std::memory_order_release);
   }
-  // Leave the device with no force, and continue the servo clock at the next start.
-  device_.set_status(
-      DeviceStatus{state_code(state_->interaction()), state_->depth(), 0, 0, limits_announced_});
-  device_.write(Vec3::Zero(), Vec3::Zero());
-  time_base_ = t + dt_;
 }
 
 bool ServoLoop::update_params() {

@@ -130,6 +130,7 @@ void Session::make_loop(const Params& params) {
   servo.rate_hz = info_.rate_hz;
   servo.realtime = options_.realtime;
   servo.spin_us = options_.spin_us;
+  servo.standby = options_.standby;
   servo.safety = options_.safety;
   servo.record = recorder_ ? &recorder_->queue() : nullptr;
   servo.params = params;

@@ -60,6 +60,7 @@ struct TimingReport {
   uint64_t cycles = 0;
   uint64_t overruns = 0;
   uint64_t work_budget = 0;  ///< steps the work budget cut short (kFlagWorkBudget)
+  uint64_t standby_cycles = 0;  ///< cycles the standby thread ran (ServoOptions::standby)
   double rate_hz = 0.0;  ///< measured
 };
 
@@ -100,6 +101,13 @@ struct ServoOptions {
   /// half the period; 0 sleeps the whole wait. Costs that share of a core; buys a punctual start
   /// (issue #11: this machine woke a sleeping thread up to 0.5 ms late once a second or so).
   double spin_us = kDefaultSpinUs;
+  /// A second servo thread on another core that runs a cycle the first has not started a quarter
+  /// period after its deadline (issue #11). On a virtual machine the hypervisor takes a core away
+  /// for 0.2-5 ms dozens of times a minute, whatever runs on it; a thread asleep or polling there
+  /// then wakes too late, while the other core usually runs on. With it the two threads are pinned
+  /// to two CPUs of the process's affinity (none when it has only one: the standby is then off, as
+  /// realtime_status() says). The standby sleeps between its checks (no polling).
+  bool standby = true;
   SafetyParams safety;                       ///< ramp, staleness, jump, global force scale
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
   /// The Params to start from (e.g. a restarted session's, with what the user tuned); their material
@@ -126,6 +134,12 @@ Params initial_params(const Model& model, const DeviceLimits& device);
 /// good pose (the safety layer zeroes the force). The cycle allocates nothing, takes no lock and
 /// does no I/O. When the loop falls more than a period behind, it skips the missed deadlines
 /// instead of running them back to back (the servo clock follows the wall clock).
+///
+/// With ServoOptions::standby a second thread on another CPU runs any cycle the servo thread has not
+/// claimed a quarter period after its deadline. Cycles are claimed one at a time through one atomic
+/// (compare-exchange, no lock), so each runs once, in order, on one thread; the loop's data passes
+/// between the two with a happens-before. The device, the snapshot buffer and the sample queue keep a
+/// single user at a time.
 ///
 /// Limits: the step clamps the wrench to Params::limits (the one clamp). They start as the scene's
 /// within the device's (initial_params); when the device announces limits (Device::poll_limits) and
@@ -170,9 +184,15 @@ class ServoLoop {
   [[nodiscard]] double dt() const { return dt_; }
   /// µs polled before each deadline: ServoOptions::spin_us, at most half the period.
   [[nodiscard]] double spin_us() const { return static_cast<double>(spin_ns_) * 1e-3; }
+  /// The CPUs the servo thread and its standby are pinned to while running (-1: not pinned, or no
+  /// standby).
+  [[nodiscard]] int cpu() const { return cpus_[0]; }
+  [[nodiscard]] int standby_cpu() const { return cpus_[1]; }
 
  private:
-  void run();
+  /// One servo thread's loop: the primary (role 0) waits for each deadline, the standby (role 1) a
+  /// quarter period longer; whichever claims a cycle first runs it (next_cycle_).
+  void run(int role);
   /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
   /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
   int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
@@ -190,17 +210,27 @@ class ServoLoop {
   TripleBuffer<ServoSnapshot> snapshots_;
   TripleBuffer<PublishedParams> params_out_;  // slots sized for the model's materials at construction
   SpscQueue<ParamChange> changes_{256};
-  std::thread thread_;
+  std::thread thread_, standby_thread_;
   std::atomic<bool> running_{false};
+  // The next cycle to run, by its index on the deadline grid (deadline = start_ns_ + index * period);
+  // kCycleBusy is set while a thread runs it. Claimed by compare-exchange, handed on with release, so
+  // the cycle's data (state, safety, device, snapshots, samples) passes from one thread to the other
+  // with a happens-before and is never touched by both at once.
+  static constexpr uint64_t kCycleBusy = uint64_t{1} << 63;
+  std::atomic<uint64_t> next_cycle_{0};
+  int64_t start_ns_ = 0;  // CLOCK_MONOTONIC ns, the grid's origin for this run
+  double last_t_ = 0.0;   // s, servo time of the last cycle run
+  double elapsed_base_ = 0.0;  // s, elapsed_ when this run started
+  std::array<int, 2> cpus_{-1, -1};
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> rejected_changes_{0};
   std::atomic<uint64_t> refused_limits_{0};
   std::string realtime_status_;
   TimingHistogram step_hist_, jitter_hist_;
-  std::atomic<uint64_t> cycles_{0}, overruns_{0}, work_budget_{0};
+  std::atomic<uint64_t> cycles_{0}, overruns_{0}, work_budget_{0}, standby_cycles_{0};
   std::atomic<double> elapsed_{0.0};  // s, wall time run by the loop over every run
   double time_base_ = 0.0;            // s, servo time at which the current run started
-  // Servo thread only.
+  // The thread running the cycle only.
   Pose last_good_;
   ServoSnapshot snapshot_;
   bool limits_announced_ = false;  // the device announced limits and they are in force
