@@ -3,20 +3,34 @@
 //
 // BM_ServoLoopOralCavity: the real ServoLoop thread, 10 s at 1 kHz and at 4 kHz, each polling the
 //   last kDefaultSpinUs before its deadlines (ServoOptions::spin_us; at most half the period) and
-//   sleeping to them (spin_us 0). Reports step time (one cycle's work) and jitter (wake-up lateness)
-//   percentiles, overruns, cycles and the measured rate as counters, and the real-time status as the
-//   label. CARIESIM_SERVO_BENCH_SECONDS overrides the 10 s.
+//   sleeping to them (spin_us 0), with and without the standby thread (ServoOptions::standby).
+//   Reports step time (one cycle's work) and jitter (wake-up lateness) percentiles, overruns, the
+//   cycles the standby ran, cycles and the measured rate as counters, and the real-time status as
+//   the label. CARIESIM_SERVO_BENCH_SECONDS overrides the 10 s.
+// BM_CoreLoss: how often this machine takes a CPU away from a thread that never yields it (issue
+//   #11): one SCHED_FIFO thread per CPU asked for (the highest CPUs of the affinity), each pinned
+//   and polling the clock for the same 10 s (CARIESIM_SERVO_BENCH_SECONDS), idle 50 ms in every
+//   500 ms so that the kernel's real-time throttle (95 % of each second) never stops it. Every stretch
+//   the clock jumped by more than 200 us is a loss: per minute and per thread over 200 us and over
+//   1 ms, the longest, and how many of the first thread's losses overlapped one of the second's.
 // BM_ServoCycleOralCavity: the same cycle's work back to back on this thread (no sleeping), 10000
 //   cycles at dt = 1 ms = the whole path once, repeated 5 times: Google Benchmark's mean/median per
 //   cycle plus the per-cycle percentiles.
 #include <benchmark/benchmark.h>
 
+#include <pthread.h>
+#include <sched.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/safety.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -51,6 +65,7 @@ void BM_ServoLoopOralCavity(benchmark::State& state) {
   ServoOptions options;
   options.rate_hz = static_cast<double>(state.range(0));
   options.spin_us = static_cast<double>(state.range(1));
+  options.standby = state.range(2) != 0;
   options.realtime = true;
   SpscQueue<ServoSample> samples(1 << 16);
   options.record = &samples;
@@ -89,17 +104,20 @@ void BM_ServoLoopOralCavity(benchmark::State& state) {
   state.counters["jitter_max_us"] = report.jitter_max;
   state.counters["cycles"] = static_cast<double>(report.cycles);
   state.counters["overruns"] = static_cast<double>(report.overruns);
+  state.counters["standby_cycles"] = static_cast<double>(report.standby_cycles);
   state.counters["rate_hz"] = report.rate_hz;
   state.counters["contact_frac"] =
       total_samples > 0 ? static_cast<double>(contact_cycles) / static_cast<double>(total_samples) : 0.0;
   state.SetLabel(status);
 }
 BENCHMARK(BM_ServoLoopOralCavity)
-    ->ArgNames({"rate_hz", "spin_us"})
-    ->Args({1000, static_cast<int64_t>(kDefaultSpinUs)})
-    ->Args({1000, 0})
-    ->Args({4000, static_cast<int64_t>(kDefaultSpinUs)})
-    ->Args({4000, 0})
+    ->ArgNames({"rate_hz", "spin_us", "standby"})
+    ->Args({1000, static_cast<int64_t>(kDefaultSpinUs), 1})
+    ->Args({1000, static_cast<int64_t>(kDefaultSpinUs), 0})
+    ->Args({1000, 0, 1})
+    ->Args({4000, static_cast<int64_t>(kDefaultSpinUs), 1})
+    ->Args({4000, static_cast<int64_t>(kDefaultSpinUs), 0})
+    ->Args({4000, 0, 1})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();
@@ -148,6 +166,81 @@ void BM_ServoCycleOralCavity(benchmark::State& state) {
 }
 // 10000 cycles = the whole 10 s path once.
 BENCHMARK(BM_ServoCycleOralCavity)->Iterations(10000)->Repetitions(5)->Unit(benchmark::kMicrosecond);
+
+// The stretches (start, end; CLOCK_MONOTONIC ns) longer than 200 us in which a pinned SCHED_FIFO
+// thread polling the clock on `cpu` did not run, over `seconds`; refused (empty, *ok false) without
+// the CPU or the priority.
+std::vector<std::pair<int64_t, int64_t>> core_losses(int cpu, double seconds, bool* ok) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  sched_param sp{};
+  sp.sched_priority = 80;
+  *ok = pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0 &&
+        pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
+  std::vector<std::pair<int64_t, int64_t>> losses;
+  if (!*ok) return losses;
+  losses.reserve(100000);
+  constexpr int64_t kLoss = 200000, kBusy = 500000000, kIdle = 50000000;  // ns
+  const int64_t start = monotonic_ns(), end = start + static_cast<int64_t>(seconds * 1e9);
+  int64_t last = start, chunk = start + kBusy;
+  while (last < end) {
+    const int64_t now = monotonic_ns();
+    if (now - last > kLoss && losses.size() < losses.capacity()) losses.emplace_back(last, now);
+    last = now;
+    if (now >= chunk) {  // the throttle's due, not a loss
+      sleep_until_ns(now + kIdle);
+      last = monotonic_ns();
+      chunk = last + kBusy;
+    }
+  }
+  return losses;
+}
+
+void BM_CoreLoss(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  sched_getaffinity(0, sizeof allowed, &allowed);
+  std::vector<int> cpus;
+  for (int c = CPU_SETSIZE - 1; c >= 0 && static_cast<int>(cpus.size()) < threads; --c)
+    if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+  if (static_cast<int>(cpus.size()) < threads) {
+    state.SkipWithError("fewer CPUs than threads");
+    return;
+  }
+  std::vector<std::vector<std::pair<int64_t, int64_t>>> losses(cpus.size());
+  bool ok[2] = {true, true};
+  for (auto _ : state) {
+    std::vector<std::thread> pool;
+    for (std::size_t i = 0; i < cpus.size(); ++i)
+      pool.emplace_back([&, i] { losses[i] = core_losses(cpus[i], run_seconds(), &ok[i]); });
+    for (std::thread& t : pool) t.join();
+  }
+  if (!ok[0] || !ok[1]) {
+    state.SkipWithError("SCHED_FIFO or the CPU refused");
+    return;
+  }
+  const double minutes = run_seconds() / 60.0;
+  for (std::size_t i = 0; i < cpus.size(); ++i) {
+    const std::string cpu = "cpu" + std::to_string(cpus[i]);
+    double over_1ms = 0, longest = 0;
+    for (const auto& [a, b] : losses[i]) {
+      over_1ms += b - a > 1000000;
+      longest = std::max(longest, static_cast<double>(b - a) * 1e-3);
+    }
+    state.counters[cpu + "_over_200us_per_min"] = static_cast<double>(losses[i].size()) / minutes;
+    state.counters[cpu + "_over_1ms_per_min"] = over_1ms / minutes;
+    state.counters[cpu + "_longest_us"] = longest;
+  }
+  if (cpus.size() == 2) {
+    double overlapping = 0;
+    for (const auto& [a, b] : losses[0])
+      overlapping += std::any_of(losses[1].begin(), losses[1].end(), [&](const auto& o) { return o.first < b && o.second > a; });
+    state.counters["overlapping_losses"] = overlapping;
+  }
+}
+BENCHMARK(BM_CoreLoss)->ArgName("threads")->Arg(1)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 }  // namespace
 
