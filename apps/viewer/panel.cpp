@@ -467,6 +467,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.field("cycles", static_cast<long long>(timing_.cycles));
   json.field("overruns", static_cast<long long>(timing_.overruns));
   json.field("work_budget", static_cast<long long>(timing_.work_budget));
+  json.field("standby_cycles", static_cast<long long>(timing_.standby_cycles));
   json.field("rate_hz", timing_.rate_hz);
   json.field("spin_us", session_ ? session_->run->loop().spin_us() : 0.0);
   json.field("step_p50_us", timing_.step_p50).field("step_p99_us", timing_.step_p99);
