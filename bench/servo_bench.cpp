@@ -17,7 +17,6 @@
 //   cycles at dt = 1 ms = the whole path once, repeated 5 times: Google Benchmark's mean/median per
 //   cycle plus the per-cycle percentiles.
 #include <benchmark/benchmark.h>
-
 #include <pthread.h>
 #include <sched.h>
 
@@ -236,11 +235,18 @@ void BM_CoreLoss(benchmark::State& state) {
   if (cpus.size() == 2) {
     double overlapping = 0;
     for (const auto& [a, b] : losses[0])
-      overlapping += std::any_of(losses[1].begin(), losses[1].end(), [&](const auto& o) { return o.first < b && o.second > a; });
+      overlapping += std::any_of(losses[1].begin(), losses[1].end(),
+                                 [&](const auto& o) { return o.first < b && o.second > a; });
     state.counters["overlapping_losses"] = overlapping;
   }
 }
-BENCHMARK(BM_CoreLoss)->ArgName("threads")->Arg(1)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_CoreLoss)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -67,8 +67,9 @@ void print_report(Session& session) {
                "  jitter    (us): p50 %.2f  p99 %.2f  p99.9 %.2f  max %.2f\n",
                static_cast<unsigned long long>(r.cycles), r.rate_hz, 1.0 / loop.dt(),
                static_cast<unsigned long long>(r.overruns), static_cast<unsigned long long>(r.work_budget),
-               static_cast<unsigned long long>(r.standby_cycles), loop.realtime_status().c_str(), loop.spin_us(), r.step_p50, r.step_p99, r.step_p999,
-               r.step_max, r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
+               static_cast<unsigned long long>(r.standby_cycles), loop.realtime_status().c_str(),
+               loop.spin_us(), r.step_p50, r.step_p99, r.step_p999, r.step_max, r.jitter_p50, r.jitter_p99,
+               r.jitter_p999, r.jitter_max);
   const Params& params = session.params();
   std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm%s\n",
                params.limits.max_force, params.limits.max_stiffness, params.limits.max_torque,

@@ -196,7 +196,8 @@ void ServoLoop::start() {
   sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
                                  sched_get_priority_max(SCHED_FIFO));
   int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
-  if (rc == 0 && standby_thread_.joinable()) rc = pthread_setschedparam(standby_thread_.native_handle(), SCHED_FIFO, &sp);
+  if (rc == 0 && standby_thread_.joinable())
+    rc = pthread_setschedparam(standby_thread_.native_handle(), SCHED_FIFO, &sp);
   if (rc == 0) {
     realtime_status_ = "SCHED_FIFO priority " + std::to_string(sp.sched_priority) + cpus;
   } else {
@@ -245,7 +246,9 @@ void ServoLoop::run(int role) {
   // has not claimed it by then: the hypervisor took its core away, or it was woken late.
   const int64_t delay = role == 0 ? 0 : period_ns_ / 4;
   const int64_t spin = role == 0 ? spin_ns_ : 0;
-  const auto deadline_of = [&](uint64_t index) { return start_ns_ + static_cast<int64_t>(index) * period_ns_; };
+  const auto deadline_of = [&](uint64_t index) {
+    return start_ns_ + static_cast<int64_t>(index) * period_ns_;
+  };
   while (running_.load(std::memory_order_relaxed)) {
     const uint64_t seen = next_cycle_.load(std::memory_order_acquire);
     if ((seen & kCycleBusy) != 0) {

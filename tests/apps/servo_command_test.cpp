@@ -55,7 +55,8 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
   EXPECT_THAT(err_, HasSubstr("real-time: not requested"));
   EXPECT_THAT(err_, HasSubstr("polls the last 150 us of each wait"));
   EXPECT_THAT(err_, HasSubstr("cycles run by the standby thread"));
-  EXPECT_THAT(err_, testing::AnyOf(HasSubstr("; standby thread on CPU "), HasSubstr("; no standby thread (one CPU)")));
+  EXPECT_THAT(err_, testing::AnyOf(HasSubstr("; standby thread on CPU "),
+                                   HasSubstr("; no standby thread (one CPU)")));
   const Recording rec = load_recording(db);
   EXPECT_EQ(rec.info.scene, "friction-block");
   EXPECT_EQ(rec.info.device, "scripted:" + path.string());
@@ -75,12 +76,14 @@ TEST_F(ServoCommand, RunsAScriptedPathRecordsItAndReplaysIt) {
   EXPECT_TRUE(touched) << "the path never reached the block";
 
   // The recording drives the loop again through replay:FILE.
-  ASSERT_EQ(run("servo --scene friction-block --device 'replay:" + db.string() + "' --quiet --no-realtime --no-standby"),
+  ASSERT_EQ(run("servo --scene friction-block --device 'replay:" + db.string() +
+                "' --quiet --no-realtime --no-standby"),
             0)
       << err_;
   EXPECT_THAT(err_, HasSubstr("cycles at"));
-  EXPECT_THAT(err_, HasSubstr(", 0 cycles run by the standby thread; real-time: not requested (normal priority); "
-                              "no standby thread;"));
+  EXPECT_THAT(err_,
+              HasSubstr(", 0 cycles run by the standby thread; real-time: not requested (normal priority); "
+                        "no standby thread;"));
 }
 
 // Issue #11/#14 item 10: steps the work budget cuts short are counted on the status line and in the

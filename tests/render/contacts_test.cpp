@@ -262,9 +262,10 @@ TEST(CollectPairs, GroupsThePairsAsStdSortWould) {
   spec.x0 = spec.y0 = -2.0;
   spec.x1 = spec.y1 = 2.0;
   const auto leaves = test::slab(spec, [](const Vec3&) { return 0; });
-  const Model m = test::model({test::object("a", leaves, ObjectKind::Soft), test::object("b", leaves, ObjectKind::Soft),
-                               test::object("c", leaves, ObjectKind::Soft)},
-                              {test::soft(1.0)});
+  const Model m =
+      test::model({test::object("a", leaves, ObjectKind::Soft), test::object("b", leaves, ObjectKind::Soft),
+                   test::object("c", leaves, ObjectKind::Soft)},
+                  {test::soft(1.0)});
   State state(m, probe_at(Vec3(0, 0, 5)));
   CollisionScratch& c = state.impl().collision;
   const auto tool_leaves = static_cast<int>(m.tool.tree.leaf_count());

@@ -5,7 +5,6 @@
 // wall-clock timing is asserted.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-
 #include <pthread.h>
 #include <sched.h>
 
@@ -498,10 +497,11 @@ TEST(ServoLoop, AStandbyThreadRunsTheCyclesWhoseCoreIsTaken) {
   const Run alone = run(false);
   const Run paired = run(true);
   if (alone.stalls == 0 || paired.stalls == 0) GTEST_SKIP() << "real-time priority refused";
-  std::printf("alone: %d stalls, %llu overruns; with the standby: %d stalls, %llu overruns, %llu standby cycles\n",
-              alone.stalls, static_cast<unsigned long long>(alone.timing.overruns), paired.stalls,
-              static_cast<unsigned long long>(paired.timing.overruns),
-              static_cast<unsigned long long>(paired.timing.standby_cycles));
+  std::printf(
+      "alone: %d stalls, %llu overruns; with the standby: %d stalls, %llu overruns, %llu standby cycles\n",
+      alone.stalls, static_cast<unsigned long long>(alone.timing.overruns), paired.stalls,
+      static_cast<unsigned long long>(paired.timing.overruns),
+      static_cast<unsigned long long>(paired.timing.standby_cycles));
 
   // The stalls made the lone servo thread late; the standby ran the cycles they held up.
   EXPECT_GE(alone.timing.overruns, static_cast<uint64_t>(alone.stalls / 2)) << alone.stalls << " stalls";

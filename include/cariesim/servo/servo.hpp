@@ -218,8 +218,8 @@ class ServoLoop {
   // with a happens-before and is never touched by both at once.
   static constexpr uint64_t kCycleBusy = uint64_t{1} << 63;
   std::atomic<uint64_t> next_cycle_{0};
-  int64_t start_ns_ = 0;  // CLOCK_MONOTONIC ns, the grid's origin for this run
-  double last_t_ = 0.0;   // s, servo time of the last cycle run
+  int64_t start_ns_ = 0;       // CLOCK_MONOTONIC ns, the grid's origin for this run
+  double last_t_ = 0.0;        // s, servo time of the last cycle run
   double elapsed_base_ = 0.0;  // s, elapsed_ when this run started
   std::array<int, 2> cpus_{-1, -1};
   std::atomic<uint64_t> dropped_{0};

@@ -42,7 +42,7 @@ struct SessionOptions {
   double rate_hz = 0.0;         ///< Hz, the servo rate; 0: the model's (Model::servo_rate)
   bool realtime = true;         ///< ask for SCHED_FIFO (the servo thread, the UDP bridge's threads)
   double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)
-  bool standby = true;  ///< a standby servo thread on a second CPU (ServoOptions::standby)
+  bool standby = true;              ///< a standby servo thread on a second CPU (ServoOptions::standby)
   SafetyParams safety;          ///< the force safety layer's ramp, staleness, jump and global scale
   double udp_timeout = 0.05;    ///< s, the UDP bridge's largest accepted transit delay
   std::string record;           ///< SQLite file to record the session into; empty: no record
