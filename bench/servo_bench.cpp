@@ -17,8 +17,6 @@
 //   cycles at dt = 1 ms = the whole path once, repeated 5 times: Google Benchmark's mean/median per
 //   cycle plus the per-cycle percentiles.
 #include <benchmark/benchmark.h>
-#include <pthread.h>
-#include <sched.h>
 
 #include <algorithm>
 #include <chrono>
@@ -30,6 +28,7 @@
 #include <vector>
 
 #include "cariesim/common/clock.hpp"
+#include "cariesim/common/cpu.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/safety.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -170,13 +169,7 @@ BENCHMARK(BM_ServoCycleOralCavity)->Iterations(10000)->Repetitions(5)->Unit(benc
 // thread polling the clock on `cpu` did not run, over `seconds`; refused (empty, *ok false) without
 // the CPU or the priority.
 std::vector<std::pair<int64_t, int64_t>> core_losses(int cpu, double seconds, bool* ok) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  sched_param sp{};
-  sp.sched_priority = 80;
-  *ok = pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0 &&
-        pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
+  *ok = pin_thread(pthread_self(), {cpu}) && set_fifo_priority(pthread_self(), 80) == 0;
   std::vector<std::pair<int64_t, int64_t>> losses;
   if (!*ok) return losses;
   losses.reserve(100000);
@@ -198,16 +191,12 @@ std::vector<std::pair<int64_t, int64_t>> core_losses(int cpu, double seconds, bo
 
 void BM_CoreLoss(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
-  cpu_set_t allowed;
-  CPU_ZERO(&allowed);
-  sched_getaffinity(0, sizeof allowed, &allowed);
-  std::vector<int> cpus;
-  for (int c = CPU_SETSIZE - 1; c >= 0 && static_cast<int>(cpus.size()) < threads; --c)
-    if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+  std::vector<int> cpus = allowed_cpus();
   if (static_cast<int>(cpus.size()) < threads) {
     state.SkipWithError("fewer CPUs than threads");
     return;
   }
+  cpus.resize(static_cast<std::size_t>(threads));
   std::vector<std::vector<std::pair<int64_t, int64_t>>> losses(cpus.size());
   bool ok[2] = {true, true};
   for (auto _ : state) {

@@ -3,8 +3,6 @@
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
-#include <pthread.h>
-#include <sched.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -16,6 +14,7 @@
 #include <ctime>
 
 #include "cariesim/common/clock.hpp"
+#include "cariesim/common/cpu.hpp"
 #include "cariesim/common/error.hpp"
 
 namespace cariesim {
@@ -291,13 +290,11 @@ void UdpDevice::start() {
   // can wait milliseconds to be scheduled, and every such delay ages the pose or drops a wrench.
   std::string status = "not requested (normal priority)";
   if (options_.realtime_priority > 0) {
-    sched_param sp{};
-    sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
-                                   sched_get_priority_max(SCHED_FIFO));
-    int rc = pthread_setschedparam(receiver_.native_handle(), SCHED_FIFO, &sp);
-    if (rc == 0) rc = pthread_setschedparam(sender_.native_handle(), SCHED_FIFO, &sp);
-    status = rc == 0 ? "SCHED_FIFO priority " + std::to_string(sp.sched_priority)
-                     : std::string("refused: ") + std::strerror(rc) + "; normal priority";
+    int rc = set_fifo_priority(receiver_.native_handle(), options_.realtime_priority);
+    if (rc == 0) rc = set_fifo_priority(sender_.native_handle(), options_.realtime_priority);
+    status = rc == 0
+                 ? "SCHED_FIFO priority " + std::to_string(clamp_fifo_priority(options_.realtime_priority))
+                 : std::string("refused: ") + std::strerror(rc) + "; normal priority";
     if (rc != 0) spdlog::warn("udp device: real-time priority for the bridge threads {}", status);
   }
   {

@@ -1,7 +1,5 @@
 #include "cariesim/servo/servo.hpp"
 
-#include <pthread.h>
-#include <sched.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -11,6 +9,7 @@
 #include <ctime>
 
 #include "cariesim/common/clock.hpp"
+#include "cariesim/common/cpu.hpp"
 #include "cariesim/common/error.hpp"
 
 namespace cariesim {
@@ -47,27 +46,6 @@ PublishedParams starting_params(const Model& model, Device& device, const ServoO
     throw Error("servo: the starting Params hold " + std::to_string(p.params.materials.size()) +
                 " materials, the model " + std::to_string(model.defaults.materials.size()));
   return p;
-}
-
-// The two highest-numbered CPUs this process may run on ({servo, standby}), or {-1, -1} when it may
-// run on only one.
-std::array<int, 2> two_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof set, &set) != 0) return {-1, -1};
-  std::array<int, 2> cpus{-1, -1};
-  int found = 0;
-  for (int cpu = CPU_SETSIZE - 1; cpu >= 0 && found < 2; --cpu)
-    if (CPU_ISSET(cpu, &set)) cpus[found++] = cpu;
-  return found == 2 ? cpus : std::array<int, 2>{-1, -1};
-}
-
-// Pins a thread to one CPU; false when refused.
-bool pin(std::thread& thread, int cpu) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  return pthread_setaffinity_np(thread.native_handle(), sizeof set, &set) == 0;
 }
 
 }  // namespace
@@ -174,7 +152,10 @@ void ServoLoop::start() {
   rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
   measured_rate_ = options_.rate_hz;
   next_cycle_.store(0, std::memory_order_relaxed);
-  cpus_ = options_.standby ? two_cpus() : std::array<int, 2>{-1, -1};
+  // With a standby: the servo thread on the highest CPU of the process's affinity, the standby on the
+  // next; with only one CPU, no standby.
+  const std::vector<int> allowed = options_.standby ? allowed_cpus() : std::vector<int>{};
+  cpus_ = allowed.size() >= 2 ? std::array<int, 2>{allowed[0], allowed[1]} : std::array<int, 2>{-1, -1};
   running_.store(true);
   thread_ = std::thread([this] { run(0); });
   if (cpus_[1] >= 0) standby_thread_ = std::thread([this] { run(1); });
@@ -182,7 +163,8 @@ void ServoLoop::start() {
   // Each thread on its own CPU (with a standby), at real-time priority when asked; say what happened.
   std::string cpus;
   if (cpus_[1] >= 0) {
-    const bool pinned = pin(thread_, cpus_[0]) && pin(standby_thread_, cpus_[1]);
+    const bool pinned = pin_thread(thread_.native_handle(), {cpus_[0]}) &&
+                        pin_thread(standby_thread_.native_handle(), {cpus_[1]});
     cpus = "; standby thread on CPU " + std::to_string(cpus_[1]) + ", servo thread on CPU " +
            std::to_string(cpus_[0]) + (pinned ? "" : " (pinning refused)");
   } else {
@@ -192,14 +174,12 @@ void ServoLoop::start() {
     realtime_status_ = "not requested (normal priority)" + cpus;
     return;
   }
-  sched_param sp{};
-  sp.sched_priority = std::clamp(options_.realtime_priority, sched_get_priority_min(SCHED_FIFO),
-                                 sched_get_priority_max(SCHED_FIFO));
-  int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
+  int rc = set_fifo_priority(thread_.native_handle(), options_.realtime_priority);
   if (rc == 0 && standby_thread_.joinable())
-    rc = pthread_setschedparam(standby_thread_.native_handle(), SCHED_FIFO, &sp);
+    rc = set_fifo_priority(standby_thread_.native_handle(), options_.realtime_priority);
   if (rc == 0) {
-    realtime_status_ = "SCHED_FIFO priority " + std::to_string(sp.sched_priority) + cpus;
+    realtime_status_ =
+        "SCHED_FIFO priority " + std::to_string(clamp_fifo_priority(options_.realtime_priority)) + cpus;
   } else {
     realtime_status_ = std::string("refused: ") + std::strerror(rc) +
                        " (needs CAP_SYS_NICE or an rtprio limit); normal priority" + cpus;

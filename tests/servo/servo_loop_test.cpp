@@ -5,8 +5,6 @@
 // wall-clock timing is asserted.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <pthread.h>
-#include <sched.h>
 
 #include <atomic>
 #include <chrono>
@@ -16,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "cariesim/common/cpu.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/servo/servo.hpp"
@@ -410,25 +409,11 @@ TEST(ServoLoop, RealtimeRequestIsAnswered) {
   EXPECT_TRUE(status.rfind("SCHED_FIFO priority ", 0) == 0 || status.rfind("refused: ", 0) == 0) << status;
 }
 
-// The CPUs this process may run on.
-int allowed_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  return sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
-}
-
 // Takes `cpu` from every thread of lower real-time priority for `stall_ms` every `every_ms`, for
 // `seconds`, the way a hypervisor takes a virtual machine's core away; returns the stalls made (0 when
 // real-time priority or the CPU was refused).
 int take_cpu(int cpu, double seconds, int stall_ms, int every_ms) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  sched_param sp{};
-  sp.sched_priority = 95;
-  if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) != 0 ||
-      pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) != 0)
-    return 0;
+  if (!pin_thread(pthread_self(), {cpu}) || set_fifo_priority(pthread_self(), 95) != 0) return 0;
   using clock = std::chrono::steady_clock;
   const auto end = clock::now() + std::chrono::duration<double>(seconds);
   int stalls = 0;
@@ -448,7 +433,8 @@ int take_cpu(int cpu, double seconds, int stall_ms, int every_ms) {
 // runs the cycles due meanwhile on the other CPU, and still each cycle runs once, in order. Needs two
 // CPUs and SCHED_FIFO.
 TEST(ServoLoop, AStandbyThreadRunsTheCyclesWhoseCoreIsTaken) {
-  if (allowed_cpus() < 2) GTEST_SKIP() << "needs two CPUs";
+  const std::vector<int> cpus = allowed_cpus();
+  if (cpus.size() < 2) GTEST_SKIP() << "needs two CPUs";
   Model m = friction_block();
   struct Run {
     TimingReport timing;
@@ -465,17 +451,10 @@ TEST(ServoLoop, AStandbyThreadRunsTheCyclesWhoseCoreIsTaken) {
     o.record = &queue;
     ServoLoop loop(m, d, o);
     // Without a standby the servo thread is not pinned: it inherits this thread's CPU.
-    cpu_set_t all, one;
-    CPU_ZERO(&one);
-    sched_getaffinity(0, sizeof all, &all);
-    int last = 0;
-    for (int c = 0; c < CPU_SETSIZE; ++c)
-      if (CPU_ISSET(c, &all)) last = c;
-    CPU_SET(last, &one);
-    if (!standby) pthread_setaffinity_np(pthread_self(), sizeof one, &one);
+    if (!standby) pin_thread(pthread_self(), {cpus.front()});
     loop.start();
-    if (!standby) pthread_setaffinity_np(pthread_self(), sizeof all, &all);
-    const int cpu = standby ? loop.cpu() : last;
+    if (!standby) pin_thread(pthread_self(), cpus);
+    const int cpu = standby ? loop.cpu() : cpus.front();
     std::atomic<bool> done{false};
     std::thread hog([&] {
       out.stalls = take_cpu(cpu, 1.5, 3, 50);
