@@ -10,18 +10,18 @@
 #include <memory>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/common/staged_folder.hpp"
+#include "cariesim/io/staged_folder.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "record/schema.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 
 namespace cariesim {
 
 namespace {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 // SQLite's last message on `db`, and what to do when it says the file is damaged: the usual cause is
 // a `.db` copied without its `-wal` file while the recorder was copying the WAL into it (a checkpoint;
@@ -241,7 +241,7 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
   const std::unique_ptr<Database> db = open_recording(file, version);
   Recording session;
   read_session(*db, session);
-  StagedFolder staged(out_dir, "export");
+  io::StagedFolder staged(out_dir, "export");
   const fs::path& dir = staged.staging();
   ExportSummary summary;
   db->exec("BEGIN", "cannot begin reading");

@@ -6,9 +6,12 @@
 #include <string>
 
 #include "cariesim/record/recorder.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 
 namespace cariesim::record {
+
+using io::Database;
+using io::Statement;
 
 /// Version of the schema this code writes and reads (the `schema_version` table).
 inline constexpr int kSchemaVersion = 1;

@@ -20,9 +20,9 @@
 
 namespace cariesim {
 
-using scene_detail::Fields;
-using scene_detail::indexed;
-using scene_detail::Reader;
+using io::Fields;
+using io::indexed;
+using io::Reader;
 
 namespace {
 

@@ -12,18 +12,18 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/training/scores.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 struct StudyRun::Db {
   explicit Db(const fs::path& file) : db(file, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE) {}
@@ -99,7 +99,7 @@ void open_study_database(Database& db) {
 // The answers of a trial as trials.answers (docs/training.md, "the study database").
 std::string answers_json(const TrialSetup& setup, const TrialAnswers& a,
                          const std::vector<MarkJudgement>& judged) {
-  JsonWriter w;
+  io::JsonWriter w;
   w.begin_object();
   switch (setup.kind) {
     case StudyKind::Tuning:
@@ -172,7 +172,7 @@ std::string scores_json(const std::vector<Score>& scores) {
     if (l == g->second.end()) l = g->second.insert(g->second.end(), {s.level, {}});
     l->second.push_back(s.value);
   }
-  JsonWriter w;
+  io::JsonWriter w;
   const auto values = [&](const std::vector<double>& v) {
     if (v.size() == 1) {
       w.value(v.front());

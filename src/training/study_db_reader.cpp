@@ -12,14 +12,14 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/report.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 namespace {
 

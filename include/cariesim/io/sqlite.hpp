@@ -1,5 +1,5 @@
 #pragma once
-// Thin RAII wrappers over SQLite's C API for the record module (no ORM): a connection and a prepared
+// Thin RAII wrappers over SQLite's C API for every database cariesim reads or writes (no ORM): a connection and a prepared
 // statement with typed bind/column helpers. Failures at open and prepare throw cariesim::Error naming
 // the file and SQLite's reason; step() returns the result code so the writer thread can report
 // failures instead of throwing through the servo side.
@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <string>
 
-namespace cariesim::record {
+namespace cariesim::io {
 
 /// One connection to a database file.
 class Database {
@@ -66,4 +66,4 @@ class Statement {
   sqlite3_stmt* stmt_ = nullptr;
 };
 
-}  // namespace cariesim::record
+}  // namespace cariesim::io

@@ -1,10 +1,10 @@
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 
 #include <limits>
 
 #include "cariesim/common/error.hpp"
 
-namespace cariesim::record {
+namespace cariesim::io {
 
 // Open the connection; a failed open still allocates a handle that carries the message.
 Database::Database(const std::filesystem::path& file, int flags) : file_(file.string()) {
@@ -74,4 +74,4 @@ std::string Statement::text(int column) const {
 
 bool Statement::is_null(int column) const { return sqlite3_column_type(stmt_, column) == SQLITE_NULL; }
 
-}  // namespace cariesim::record
+}  // namespace cariesim::io
