@@ -16,7 +16,7 @@
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 
 namespace cariesim {
 
