@@ -77,7 +77,8 @@ struct Recorder::Impl {
   Impl(const fs::path& path, const SessionInfo& session, const RecorderOptions& opts)
       : file(path),
         options(opts),
-        db(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE),
+        db_owner(io::create_database(path)),
+        db(*db_owner),
         deriver(opts.soft_tissue_threshold, 1.0 / session.rate_hz) {}
 
   void open_database(const SessionInfo& info);
@@ -92,7 +93,8 @@ struct Recorder::Impl {
 
   fs::path file;
   RecorderOptions options;
-  io::Database db;
+  std::unique_ptr<io::Database> db_owner;  // a new file, claimed with O_EXCL (defensive settings)
+  io::Database& db;
   std::optional<io::Statement> insert_sample, insert_event, update_event, begin_tx, commit_tx;
   record::EventDeriver deriver;
   std::vector<record::EventDeriver::Change> changes;  // scratch, reused every batch
