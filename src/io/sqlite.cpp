@@ -460,7 +460,10 @@ int Database::close() {
   return rc;
 }
 
-void Database::fail(const std::string& what) const { throw Error(file_ + ": " + what + ": " + message()); }
+void Database::fail(const std::string& what) const {
+  if (busy()) throw LockedError(file_ + ": " + what + ": " + message());
+  throw Error(file_ + ": " + what + ": " + message());
+}
 
 void Database::set_work_limits(const WorkLimits& limits) {
   bounds_->max_steps = limits.steps;
@@ -656,7 +659,7 @@ std::unique_ptr<Database> open_input(const fs::path& file, const Schema& schema,
     db.reset(new Database(file.string(), file_uri(file, "mode=ro"), kFlags, "shared", bounds));
     sqlite3_busy_timeout(db->get(), kReaderBusyMs);
   } else if (write_locked_by_another_process(file)) {
-    throw Error(
+    throw LockedError(
         file.string() +
         ": locked by another program, which is writing it; try again when that program has closed it");
   } else if (wal_bytes > 0) {
@@ -706,6 +709,7 @@ std::unique_ptr<Database> open_for_append(const fs::path& file, const Schema& sc
   std::unique_ptr<Database> db(new Database(file.string(), file_uri(file, ""),
                                             SQLITE_OPEN_READWRITE | SQLITE_OPEN_URI, "append",
                                             default_limits(size_or_zero(file))));
+  sqlite3_busy_timeout(db->get(), kReaderBusyMs);
   identify_and_check(*db, schema);
   db->renew_work_budget();
   return db;

@@ -30,7 +30,17 @@
 #include <utility>
 #include <vector>
 
+#include "cariesim/common/error.hpp"
+
 namespace cariesim::io {
+
+/// Thrown when a database is locked by another connection or program (SQLITE_BUSY, SQLITE_LOCKED,
+/// or an input another process is writing): nothing is wrong with the file; trying again later may
+/// succeed.
+class LockedError : public Error {
+ public:
+  using Error::Error;
+};
 
 class Database;
 struct BoundedVfs;
@@ -92,8 +102,9 @@ std::unique_ptr<Database> open_input(const std::filesystem::path& file, const Sc
                                      const WorkLimits& limits = {});
 
 /// Opens an existing database to append to it (a study database), read-write, with `schema` checked
-/// (so no trigger or view of the file's own is there to run, even for another program) and the
-/// defensive settings. Throws cariesim::Error naming the file and the cause.
+/// (so no trigger or view of the file's own is there to run, even for another program), the
+/// defensive settings and a busy timeout of 2 s. Throws cariesim::Error naming the file and the
+/// cause (LockedError when another program holds it locked).
 std::unique_ptr<Database> open_for_append(const std::filesystem::path& file, const Schema& schema);
 
 /// Creates a new database at `file` (which the caller has just claimed, e.g. with O_EXCL, or which
@@ -126,7 +137,8 @@ class Database {
   int try_exec(const std::string& sql);
   /// Closes the connection (idempotent); returns SQLite's result code.
   int close();
-  /// Throws cariesim::Error "file: what: reason" with this connection's last message.
+  /// Throws cariesim::Error "file: what: reason" with this connection's last message; a LockedError
+  /// when the failure was another connection's lock.
   [[noreturn]] void fail(const std::string& what) const;
 
   /// Checks that the database holds exactly `schema`'s objects; throws cariesim::Error naming the first
