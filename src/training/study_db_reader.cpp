@@ -14,6 +14,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/io/sqlite.hpp"
 #include "cariesim/training/report.hpp"
+#include "cariesim/training/run.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
@@ -70,6 +71,21 @@ void check_score(const TrialScore& s, const ScoreRule& rule, const std::string& 
                             where(file, "scores", row, context, "value"), s.value, rule.name,
                             rule.integral ? "a whole number" : "a number", rule.lo, rule.hi,
                             rule.unit.empty() ? "" : " " + std::string(rule.unit)));
+}
+
+// Trial results waiting beside a database (run.cpp writes them while it is locked), counted up to a
+// bound; they are read only by the run that merges them.
+std::size_t count_pending(const fs::path& database) {
+  constexpr std::size_t kMaxCounted = 100000;
+  std::error_code ec;
+  const fs::path dir = pending_folder(database);
+  if (!fs::is_directory(dir, ec)) return 0;
+  std::size_t count = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.starts_with("trial-") && name.ends_with(".json") && ++count >= kMaxCounted) break;
+  }
+  return count;
 }
 
 // "FILE#id": where a trial row came from.
@@ -182,6 +198,7 @@ MergedStudies merge_study_databases(const std::vector<fs::path>& files) {
     std::vector<StudyTrial> trials = read_study_database(file);
     seen.push_back(file);
     input.trials = trials.size();
+    input.pending = count_pending(file);
 
     // Each row once: a copy of a row already read is left out, unless it finished and the kept one
     // did not.

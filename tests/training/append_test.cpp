@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <string>
@@ -114,6 +115,13 @@ TEST(StudyAppend, ResultsOfALockedDatabaseWaitInAPendingFileAndAreMerged) {
   EXPECT_TRUE(fs::exists(result.pending));
   const std::string row = std::to_string(result.row);
   EXPECT_EQ(test::query(db, "SELECT ended_at FROM trials WHERE id = " + row)[0][0], "NULL");
+  // The report says they wait there.
+  const Report waiting = build_report(merge_study_databases({db}));
+  ASSERT_EQ(waiting.merged.inputs.size(), 1u);
+  EXPECT_EQ(waiting.merged.inputs[0].pending, 1u);
+  EXPECT_TRUE(std::any_of(waiting.warnings.begin(), waiting.warnings.end(), [](const std::string& w) {
+    return w.find("1 trial result(s) wait in") != std::string::npos;
+  }));
 
   // The next open (another participant at the same station) merges them.
   { StudyRun next(boundary_small(), options(db, "P02")); }
