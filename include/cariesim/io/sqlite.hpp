@@ -85,9 +85,9 @@ struct WorkLimits {
 };
 
 /// Steps a connection on a file of `bytes` bytes may run by default: kBaseSteps + kStepsPerByte per
-/// byte (about forty times what reading every row of a recording or study database takes).
+/// byte (reading every row of a recording or a study database takes under 0.5 steps per byte).
 inline constexpr std::uint64_t kBaseSteps = std::uint64_t{200'000'000};
-inline constexpr std::uint64_t kStepsPerByte = 64;
+inline constexpr std::uint64_t kStepsPerByte = 16;
 /// Temporary bytes a connection on a file of `bytes` bytes may hold by default: 64 MiB + the file's size.
 inline constexpr std::uint64_t kBaseTempBytes = std::uint64_t{64} << 20;
 /// The default limits for an input of `bytes` bytes.
