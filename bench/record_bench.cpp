@@ -6,6 +6,11 @@
 // BM_RecordPaced: a servo-like producer pushes at the real rate for 2 s; every cycle it samples how
 //   much pushed sample time is not yet committed (what a crash at that moment would lose):
 //   p50/p99/max in ms, and the process CPU time per second of recording.
+// BM_ReplayFirstPose: a recording of N s at 4 kHz (60 s: 55 MB; 600 s: 10 minutes, 550 MB) played
+//   with `--device replay:`: the time from opening the file to the first pose the servo thread can
+//   read, the memory the replay device takes (resident set growth) and the samples it holds, which
+//   stay at most kReplayReadAhead however long the recording (the whole file was loaded before: 1.1
+//   GB and 20 s for the 10-minute one).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -14,10 +19,14 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "cariesim/record/recorder.hpp"
+#include "cariesim/record/replay.hpp"
 
 namespace {
 
@@ -148,4 +157,72 @@ BENCHMARK(BM_RecordPaced)->Arg(1000)->Arg(10000)->Iterations(1)->Unit(benchmark:
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// kB of resident memory (VmRSS of /proc/self/status).
+double resident_kb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6));
+  return 0.0;
+}
+
+// The recordings BM_ReplayFirstPose made, by length (s); removed when the program ends.
+std::map<double, fs::path> long_recordings;
+
+// A recording of `seconds` s at `rate` Hz, written once per length and kept for the repetitions.
+fs::path long_recording(double seconds, double rate) {
+  std::map<double, fs::path>& made = long_recordings;
+  if (const auto it = made.find(seconds); it != made.end()) return it->second;
+  const fs::path file = fs::temp_directory_path() / ("cariesim_replay_bench_" + std::to_string(getpid()) +
+                                                     "_" + std::to_string(static_cast<int>(seconds)) + ".db");
+  RecorderOptions options;
+  options.overwrite = true;
+  Recorder recorder(file, session(rate), options);
+  recorder.start();
+  const auto count = static_cast<std::size_t>(seconds * rate);
+  for (std::size_t i = 0; i < count; ++i)
+    while (!recorder.queue().push(sample(i, rate)))
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+  recorder.stop();
+  made[seconds] = file;
+  return file;
+}
+
+void BM_ReplayFirstPose(benchmark::State& state) {
+  constexpr double kRate = 4000.0;  // Hz
+  const double seconds = static_cast<double>(state.range(0));
+  const fs::path file = long_recording(seconds, kRate);
+  double growth_kb = 0.0;
+  std::size_t held = 0;
+  for (auto _ : state) {
+    const double before = resident_kb();
+    const auto start = Clock::now();
+    cariesim::ReplayDevice replay(file, false);
+    benchmark::DoNotOptimize(replay.read(0.0).pose.p.x());
+    state.SetIterationTime(std::chrono::duration<double>(Clock::now() - start).count());
+    growth_kb = resident_kb() - before;
+    held = replay.max_buffered_samples();
+  }
+  state.counters["file_mb"] = static_cast<double>(fs::file_size(file)) / 1e6;
+  state.counters["rss_growth_mb"] = growth_kb / 1024.0;
+  state.counters["held_samples"] = static_cast<double>(held);
+}
+BENCHMARK(BM_ReplayFirstPose)
+    ->Arg(60)
+    ->Arg(600)
+    ->UseManualTime()
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond);
+
+// The recordings made for BM_ReplayFirstPose are removed after the run.
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  for (const auto& [seconds, file] : long_recordings) {
+    std::error_code ec;
+    for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(file.string() + suffix, ec);
+  }
+  return 0;
+}

@@ -46,18 +46,20 @@ def schema():
     sql = "".join(re.findall(r'"((?:[^"\\]|\\.)*)"', body))
     version = int(re.search(r"kStudySchemaVersion = (\d+);", text).group(1))
     app_id = int(re.search(r"kStudyApplicationId = (0x[0-9A-Fa-f]+);", text).group(1), 16)
-    return sql, version, app_id
+    application = re.search(r'kStudyApplication = "([^"]+)";', text).group(1)
+    return sql, version, app_id, application
 
 
 class Station:
     def __init__(self, path, name):
-        sql, version, app_id = schema()
+        sql, version, app_id, application = schema()
         if os.path.exists(path):
             os.remove(path)
         self.db = sqlite3.connect(path)
+        self.db.execute("PRAGMA journal_mode=WAL")  # as cariesim study run writes it
         self.db.executescript(sql)
         self.db.execute("PRAGMA application_id=%d" % app_id)
-        self.db.execute("INSERT INTO schema_version (version, application) VALUES (?, 'cariesim')", (version,))
+        self.db.execute("INSERT INTO schema_version (version, application) VALUES (?, ?)", (version, application))
         self.name = name
 
     def trial(self, who, study, number, seed, start, seconds, scores, finished=True):

@@ -10,7 +10,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/safety.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 #include "viewer_app.hpp"
 
 namespace cariesim::viewer {
@@ -47,7 +47,7 @@ bool slider(const char* label, double& value, double lo, double hi, const char* 
 }
 
 // 0-255 integer channels of a colour.
-void json_rgb(JsonWriter& json, const Rgba& c) {
+void json_rgb(io::JsonWriter& json, const Rgba& c) {
   json.begin_array();
   for (int k = 0; k < 3; ++k)
     json.value(static_cast<int>(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f)));
@@ -429,7 +429,7 @@ void ViewerApp::save_scene() {
 std::string ViewerApp::status_json(int width, int height) const {
   // What the UI showed in the screenshot's frame, and where things are in the image (px, top-left).
   const StepOutput& out = snapshot_.out;
-  JsonWriter json;
+  io::JsonWriter json;
   json.begin_object();
   // The mode: a trainee's window (locked), the instructor's unlocked one, or the ordinary window.
   json.field("mode", locked() ? "trainee" : trainee_ ? "instructor" : "full");

@@ -13,7 +13,7 @@
 #include <filesystem>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 #include "viewer_app.hpp"
 
 namespace cariesim::viewer {
@@ -381,7 +381,7 @@ void ViewerApp::panel_study() {
   }
 }
 
-void ViewerApp::study_json(JsonWriter& json) const {
+void ViewerApp::study_json(io::JsonWriter& json) const {
   // The study's progress as the panel shows it (nothing of what the trial hides).
   json.key("study");
   if (!course_ || !study_) {

@@ -32,7 +32,7 @@
 
 struct GLFWwindow;
 
-namespace cariesim {
+namespace cariesim::io {
 class JsonWriter;
 }
 
@@ -188,7 +188,7 @@ class ViewerApp {
   void submit_shapes();
   void play_answers();
   void panel_study();
-  void study_json(JsonWriter& json) const;
+  void study_json(io::JsonWriter& json) const;
 
   // The window script (--script): its steps, the next one, a key it pressed in the last frame.
   std::vector<ScriptStep> script_;

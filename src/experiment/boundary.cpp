@@ -27,7 +27,7 @@ struct Run {
 
 }  // namespace
 
-void run_boundary(const ExperimentOptions& options, JsonWriter& summary) {
+void run_boundary(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "boundary: building boundary-square");
   const Model model = build_model(load_scene("boundary-square"), options.build);
   if (model.lesions.empty()) throw Error("boundary-square: the scene has no lesion");

@@ -82,7 +82,7 @@ void RunChecks::add(const Model& model, const std::vector<SimSample>& samples) {
   force_step = std::max(force_step, max_force_step(samples));
 }
 
-void RunChecks::write(JsonWriter& summary) const {
+void RunChecks::write(io::JsonWriter& summary) const {
   summary.field("max_rigid_penetration_mm", rigid_penetration);
   summary.field("max_force_step_N", force_step);
 }

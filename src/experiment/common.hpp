@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "cariesim/experiment/experiments.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 #include "cariesim/experiment/simulate.hpp"
 
 namespace cariesim::experiment {
@@ -53,7 +53,7 @@ struct RunChecks {
   /// Takes one run into account.
   void add(const Model& model, const std::vector<SimSample>& samples);
   /// Writes max_rigid_penetration_mm and max_force_step_N.
-  void write(JsonWriter& summary) const;
+  void write(io::JsonWriter& summary) const;
 };
 
 /// Progress line on stderr unless quiet.
@@ -69,9 +69,9 @@ Stats abs_stats(const std::vector<SimSample>& samples, double t0, double t1,
                 double (*value)(const SimSample&));
 
 // One function per experiment; each fills `summary` (an open JSON object's fields).
-void run_friction(const ExperimentOptions& options, JsonWriter& summary);
-void run_boundary(const ExperimentOptions& options, JsonWriter& summary);
-void run_insertion(const ExperimentOptions& options, JsonWriter& summary);
-void run_oral(const ExperimentOptions& options, JsonWriter& summary);
+void run_friction(const ExperimentOptions& options, io::JsonWriter& summary);
+void run_boundary(const ExperimentOptions& options, io::JsonWriter& summary);
+void run_insertion(const ExperimentOptions& options, io::JsonWriter& summary);
+void run_oral(const ExperimentOptions& options, io::JsonWriter& summary);
 
 }  // namespace cariesim::experiment

@@ -12,7 +12,7 @@ namespace {
 
 struct Entry {
   const char* name;
-  void (*run)(const ExperimentOptions&, JsonWriter&);
+  void (*run)(const ExperimentOptions&, io::JsonWriter&);
 };
 
 const Entry kExperiments[] = {
@@ -28,7 +28,7 @@ std::string run_one(const Entry& e, const ExperimentOptions& options) {
   std::filesystem::create_directories(options.out, ec);
   if (ec) throw Error(options.out.string() + ": cannot create the output folder: " + ec.message());
   const auto start = std::chrono::steady_clock::now();
-  JsonWriter summary;
+  io::JsonWriter summary;
   summary.begin_object();
   e.run(options, summary);
   // Figures from the data just written.

@@ -24,7 +24,7 @@ struct Run {
 
 }  // namespace
 
-void run_friction(const ExperimentOptions& options, JsonWriter& summary) {
+void run_friction(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "friction: building friction-block");
   const Model model = build_model(load_scene("friction-block"), options.build);
   if (model.lesions.empty()) throw Error("friction-block: the scene has no carious top");

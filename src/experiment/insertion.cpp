@@ -75,7 +75,7 @@ constexpr double kSweepSpeed = 2.0;  // mm/s, the hand's insertion speed in the 
 
 // Runs the k_c sweep on `base` (insertion-blocks) and writes kc_sweep.csv and the summary's "kc_sweep".
 void run_kc_sweep(const ExperimentOptions& options, const Model& base, const Trajectory& push,
-                  RunChecks& checks, JsonWriter& summary) {
+                  RunChecks& checks, io::JsonWriter& summary) {
   say(options, "insertion: k_c sweep at 2 mm/s");
   std::vector<std::vector<double>> rows;
   std::vector<std::string> names;
@@ -119,7 +119,7 @@ void run_kc_sweep(const ExperimentOptions& options, const Model& base, const Tra
 
 }  // namespace
 
-void run_insertion(const ExperimentOptions& options, JsonWriter& summary) {
+void run_insertion(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "insertion: building insertion-blocks");
   const Model model = build_model(load_scene("insertion-blocks"), options.build);
   if (model.lesions.empty()) throw Error("insertion-blocks: the scene has no lesion");

@@ -141,7 +141,7 @@ Trajectory probe_trajectory(const Model& model, const LesionModel& lesion, const
   return path.trajectory();
 }
 
-void run_oral(const ExperimentOptions& options, JsonWriter& summary) {
+void run_oral(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "oral: building oral-cavity");
   const Model model = build_model(load_scene("oral-cavity"), options.build);
   summary.field("experiment", "oral").field("paper", "Figs. 15-16, §5.3").key("lesions").begin_array();

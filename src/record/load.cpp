@@ -10,18 +10,18 @@
 #include <memory>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/common/staged_folder.hpp"
+#include "cariesim/io/sqlite.hpp"
+#include "cariesim/io/staged_folder.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "record/schema.hpp"
-#include "record/sqlite.hpp"
 
 namespace cariesim {
 
 namespace {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 // SQLite's last message on `db`, and what to do when it says the file is damaged: the usual cause is
 // a `.db` copied without its `-wal` file while the recorder was copying the WAL into it (a checkpoint;
@@ -40,40 +40,19 @@ std::string reason(const Database& db) {
   throw Error(db.file() + ": " + what + ": " + reason(db));
 }
 
-// Opens a recording and checks it is one this code reads. Read-write when possible so SQLite can
-// recover the WAL of a recorder that was killed (nothing is changed: recovery rebuilds the WAL
-// index); read-only otherwise.
+// Opens a recording read-only through the defensive opener (io/sqlite.hpp): exactly the recording
+// schema, none of the file's own SQL, bounded work, nothing made beside the file. A recorder killed
+// mid-session left its -wal and -shm, through which the file is read whole.
 std::unique_ptr<Database> open_recording(const fs::path& file, int& version) {
-  std::error_code ec;
-  if (!fs::exists(file, ec)) throw Error(file.string() + ": no such recording");
-  if (fs::is_directory(file, ec)) throw Error(file.string() + ": is a directory, not a recording");
-  std::unique_ptr<Database> db;
-  try {
-    db = std::make_unique<Database>(file, SQLITE_OPEN_READWRITE);
-  } catch (const Error&) {
-    db = std::make_unique<Database>(file, SQLITE_OPEN_READONLY);
-  }
-  db->exec("PRAGMA busy_timeout=1000", "cannot set the busy timeout");
-
-  // The version table tells a recording from any other SQLite file (or a non-database).
-  std::unique_ptr<Statement> check;
-  try {
-    check = std::make_unique<Statement>(*db, "SELECT version, application FROM schema_version");
-  } catch (const Error&) {
-    throw Error(file.string() + ": not a cariesim recording (" + reason(*db) + ")");
-  }
-  if (check->step() != SQLITE_ROW || check->text(1) != "cariesim")
-    throw Error(file.string() + ": not a cariesim recording (schema_version has no cariesim row)");
-  version = static_cast<int>(check->integer(0));
-  if (version != record::kSchemaVersion)
-    throw Error(file.string() + ": schema version " + std::to_string(version) +
-                " is not supported (this cariesim reads version " + std::to_string(record::kSchemaVersion) +
-                ")");
+  std::unique_ptr<Database> db = io::open_input(file, record::recording_schema());
+  Statement check(*db, "SELECT version FROM schema_version");
+  if (check.step() != SQLITE_ROW) fail_reading(*db, "cannot read the schema version");
+  version = static_cast<int>(check.integer(0));
   return db;
 }
 
 // The session row and the recorder settings stored with it.
-void read_session(Database& db, Recording& out) {
+void read_session_row(Database& db, Recording& out) {
   Statement row(db,
                 "SELECT scene, scene_hash, device, rate_hz, version, parameters, started_at, ended_at,"
                 " batch_seconds, soft_tissue_threshold FROM session WHERE id = 1");
@@ -213,10 +192,30 @@ void put_trajectory_row(fmt::memory_buffer& b, double t, const Pose& h) {
 
 }  // namespace
 
+namespace record {
+
+std::unique_ptr<Database> open_recording(const fs::path& file) {
+  int version = 0;
+  return cariesim::open_recording(file, version);
+}
+
+void read_session(Database& db, Recording& out) { cariesim::read_session_row(db, out); }
+
+std::vector<RecordedEvent> read_events(Database& db, std::size_t max) {
+  std::vector<RecordedEvent> out;
+  Statement events(db, kSelectEvents);
+  int rc = SQLITE_ROW;
+  while (out.size() < max && (rc = events.step()) == SQLITE_ROW) out.push_back(read_event(events));
+  if (rc != SQLITE_ROW && rc != SQLITE_DONE) fail_reading(db, "cannot read the events");
+  return out;
+}
+
+}  // namespace record
+
 Recording load_recording(const fs::path& file) {
   Recording out;
   const std::unique_ptr<Database> db = open_recording(file, out.schema_version);
-  read_session(*db, out);
+  read_session_row(*db, out);
   // One read transaction, so a recorder still writing cannot change the file between the queries.
   db->exec("BEGIN", "cannot begin reading");
   {
@@ -231,6 +230,7 @@ Recording load_recording(const fs::path& file) {
     if (rc != SQLITE_DONE) fail_reading(*db, "cannot read the events");
   }
   db->exec("COMMIT", "cannot end reading");
+  db->check_input_unchanged();
   return out;
 }
 
@@ -240,8 +240,8 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
   int version = 0;
   const std::unique_ptr<Database> db = open_recording(file, version);
   Recording session;
-  read_session(*db, session);
-  StagedFolder staged(out_dir, "export");
+  read_session_row(*db, session);
+  io::StagedFolder staged(out_dir, "export");
   const fs::path& dir = staged.staging();
   ExportSummary summary;
   db->exec("BEGIN", "cannot begin reading");
@@ -339,6 +339,7 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
     summary.files.push_back(dir / "events.csv");
   }
   db->exec("COMMIT", "cannot end reading");
+  db->check_input_unchanged();
   staged.publish();
   for (fs::path& f : summary.files) f = staged.target() / f.filename();
   return summary;

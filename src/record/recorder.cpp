@@ -16,7 +16,7 @@
 #include "cariesim/common/error.hpp"
 #include "record/event_deriver.hpp"
 #include "record/schema.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 
 namespace cariesim {
 
@@ -77,7 +77,8 @@ struct Recorder::Impl {
   Impl(const fs::path& path, const SessionInfo& session, const RecorderOptions& opts)
       : file(path),
         options(opts),
-        db(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE),
+        db_owner(io::create_database(path)),
+        db(*db_owner),
         deriver(opts.soft_tissue_threshold, 1.0 / session.rate_hz) {}
 
   void open_database(const SessionInfo& info);
@@ -92,8 +93,9 @@ struct Recorder::Impl {
 
   fs::path file;
   RecorderOptions options;
-  record::Database db;
-  std::optional<record::Statement> insert_sample, insert_event, update_event, begin_tx, commit_tx;
+  std::unique_ptr<io::Database> db_owner;  // a new file, claimed with O_EXCL (defensive settings)
+  io::Database& db;
+  std::optional<io::Statement> insert_sample, insert_event, update_event, begin_tx, commit_tx;
   record::EventDeriver deriver;
   std::vector<record::EventDeriver::Change> changes;  // scratch, reused every batch
 
@@ -125,7 +127,7 @@ struct Recorder::Impl {
 // start still leaves a readable recording; then the statements the writer reuses.
 void Recorder::Impl::open_database(const SessionInfo& info) {
   {
-    record::Statement mode(db, "PRAGMA journal_mode=WAL");
+    io::Statement mode(db, "PRAGMA journal_mode=WAL");
     if (mode.step() != SQLITE_ROW || mode.text(0) != "wal")
       db.fail("cannot switch to WAL mode (the file system may not support it)");
   }
@@ -141,7 +143,7 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
   if (options.max_bytes > 0) {
     int64_t page_size = 4096;
     {
-      record::Statement page(db, "PRAGMA page_size");
+      io::Statement page(db, "PRAGMA page_size");
       if (page.step() == SQLITE_ROW) page_size = page.integer(0);
     }
     const uint64_t pages = std::max<uint64_t>(2, options.max_bytes / static_cast<uint64_t>(page_size));
@@ -150,7 +152,7 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
 
   db.exec("BEGIN", "cannot begin the schema transaction");
   record::create_schema(db);
-  record::Statement session(
+  io::Statement session(
       db,
       "INSERT INTO session (id, scene, scene_hash, device, rate_hz, version, parameters,"
       " started_at, ended_at, batch_seconds, soft_tissue_threshold)"
@@ -260,7 +262,7 @@ void Recorder::Impl::commit(std::atomic<uint64_t>& written) {
   int64_t new_events = 0;
   for (const record::EventDeriver::Change& change : changes) {
     const RecordedEvent& e = change.event;
-    record::Statement& statement = change.fresh ? *insert_event : *update_event;
+    io::Statement& statement = change.fresh ? *insert_event : *update_event;
     if (change.fresh) {
       statement.bind(0, change.id);
       statement.bind(1, e.t);
@@ -315,7 +317,7 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
     commit(written);
   }
   if (!failed) {
-    record::Statement end(db, "UPDATE session SET ended_at = ? WHERE id = 1");
+    io::Statement end(db, "UPDATE session SET ended_at = ? WHERE id = 1");
     end.bind(0, utc_now_iso8601());
     const int rc = end.step();
     if (rc != SQLITE_DONE) fail("cannot stamp the session's end", rc);

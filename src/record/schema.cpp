@@ -40,6 +40,43 @@ void create_schema(Database& db) {
   db.exec(script, "cannot create the schema");
 }
 
+io::Schema recording_schema() {
+  io::Schema schema;
+  schema.what = "cariesim recording";
+  schema.application_id = kApplicationId;
+  schema.known_applications = {{0x43525354, "a cariesim study database"}};
+  schema.version_table = "schema_version";
+  schema.identify = [](Database& db) {
+    Statement check(db, "SELECT version, application FROM schema_version");
+    const int rc = check.step();
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) db.fail("cannot read the schema version");
+    if (rc != SQLITE_ROW || check.text(1) != "cariesim")
+      throw Error(db.file() + ": not a cariesim recording (schema_version has no cariesim row)");
+    const int64_t version = check.integer(0);
+    if (version != kSchemaVersion)
+      throw Error(db.file() + ": schema version " + std::to_string(version) +
+                  " is not supported (this cariesim reads version " + std::to_string(kSchemaVersion) + ")");
+  };
+  std::vector<std::string> samples = {"id"};
+  for (const char* column : kSampleColumns) samples.emplace_back(column);
+  std::vector<std::string> events = {"id"};
+  for (const char* column : kEventColumns) events.emplace_back(column);
+  using Type = io::SchemaObject::Type;
+  schema.objects = {
+      {Type::Table, "schema_version", "schema_version", {"version", "application"}},
+      {Type::Table,
+       "session",
+       "session",
+       {"id", "scene", "scene_hash", "device", "rate_hz", "version", "parameters", "started_at", "ended_at",
+        "batch_seconds", "soft_tissue_threshold"}},
+      {Type::Table, "state_names", "state_names", {"code", "name"}},
+      {Type::Table, "samples", "samples", samples},
+      {Type::Table, "events", "events", events},
+      {Type::Index, "events_by_time", "events", {}},
+  };
+  return schema;
+}
+
 std::string insert_sample_sql() {
   std::string names = "id";
   std::string marks = "?";

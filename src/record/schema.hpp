@@ -3,12 +3,18 @@
 // table (and CSV) order, and the binding/reading of one sample row.
 #include <array>
 #include <cstdint>
+#include <filesystem>
+#include <memory>
 #include <string>
+#include <vector>
 
+#include "cariesim/io/sqlite.hpp"
 #include "cariesim/record/recorder.hpp"
-#include "record/sqlite.hpp"
 
 namespace cariesim::record {
+
+using io::Database;
+using io::Statement;
 
 /// Version of the schema this code writes and reads (the `schema_version` table).
 inline constexpr int kSchemaVersion = 1;
@@ -32,6 +38,20 @@ inline constexpr std::array<const char*, 31> kSampleColumns = {
 /// The `events` columns after `id`, in order (also events.csv's columns).
 inline constexpr std::array<const char*, 6> kEventColumns = {"t",     "kind",   "detail",
                                                              "value", "lesion", "duration"};
+
+/// What a recording holds, for io::open_input: the application id, the version row (schema_version
+/// with application 'cariesim' and version kSchemaVersion) and exactly the tables and index
+/// create_schema makes, each with the columns the readers use. A recording is an input from
+/// elsewhere: nothing else in it is accepted (docs/records.md).
+io::Schema recording_schema();
+
+/// Opens `file` as a recording this code reads (io::open_input with recording_schema(), the version
+/// checked); throws cariesim::Error naming the file and the cause.
+std::unique_ptr<Database> open_recording(const std::filesystem::path& file);
+/// The session row and the recorder settings into `out` (info, batch_seconds, soft_tissue_threshold).
+void read_session(Database& db, Recording& out);
+/// The first `max` events by start time.
+std::vector<RecordedEvent> read_events(Database& db, std::size_t max);
 
 /// Creates every table and writes the version and state-name rows (inside the caller's transaction).
 void create_schema(Database& db);

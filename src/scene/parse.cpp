@@ -16,13 +16,13 @@
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 
 namespace cariesim {
 
-using scene_detail::Fields;
-using scene_detail::indexed;
-using scene_detail::Reader;
+using io::Fields;
+using io::indexed;
+using io::Reader;
 
 namespace {
 

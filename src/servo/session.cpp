@@ -7,7 +7,7 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 #include "cariesim/record/replay.hpp"
 #include "cariesim/servo/device_factory.hpp"
 
@@ -57,7 +57,7 @@ const char* param_field_name(ParamChange::Field field) {
 
 std::string params_json(const Model& model, const Params& params) {
   // Every lesion's top material.
-  JsonWriter json;
+  io::JsonWriter json;
   json.begin_object().key("lesions").begin_array();
   for (const LesionModel& lesion : model.lesions) {
     const Material& m = params.materials.at(static_cast<std::size_t>(lesion.material));

@@ -11,14 +11,14 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/study.hpp"
-#include "scene/yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 
 namespace cariesim::training {
 
 namespace {
 
-using scene_detail::Fields;
-using scene_detail::Reader;
+using io::Fields;
+using io::Reader;
 
 // A non-empty text field.
 std::string required_text(const Reader& r, const Fields& f, std::string_view key) {
@@ -110,7 +110,7 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
     if (const auto list = f.get("participants"); list.IsDefined() && !list.IsNull()) {
       r.require_sequence(list, "participants");
       for (std::size_t i = 0; i < list.size(); ++i) {
-        const std::string path = scene_detail::indexed("participants", i);
+        const std::string path = io::indexed("participants", i);
         std::string id = identifier(r, list[i], path);
         if (std::find(course.participants.begin(), course.participants.end(), id) !=
             course.participants.end())

@@ -17,14 +17,14 @@
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/servo/session.hpp"
 #include "cariesim/training/scores.hpp"
-#include "scene/yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
-using scene_detail::Fields;
-using scene_detail::indexed;
-using scene_detail::Reader;
+using io::Fields;
+using io::indexed;
+using io::Reader;
 
 namespace {
 

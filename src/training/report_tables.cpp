@@ -509,8 +509,14 @@ Report build_report(MergedStudies merged) {
   report.tables.push_back(duplicates_table(merged));
 
   // What a reader should know before reading the numbers.
-  for (const MergedStudies::Input& in : merged.inputs)
+  for (const MergedStudies::Input& in : merged.inputs) {
     if (in.same_file_again) report.warnings.push_back(in.file + ": given twice; counted once");
+    if (in.pending > 0)
+      report.warnings.push_back(
+          in.file + ": " + std::to_string(in.pending) + " trial result(s) wait in " + in.file +
+          "-pending (the database was locked when they ended) and are not in this report; "
+          "they are merged when a study next runs on it");
+  }
   if (!merged.duplicates.empty()) {
     std::size_t differing = 0;
     for (const DuplicateTrial& d : merged.duplicates) differing += d.differs ? 1 : 0;

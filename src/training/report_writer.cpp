@@ -14,8 +14,8 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/common/staged_folder.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/staged_folder.hpp"
+#include "cariesim/io/json.hpp"
 #include "cariesim/training/report.hpp"
 
 namespace cariesim::training {
@@ -104,7 +104,7 @@ std::string table_csv(const ReportTable& table) {
   return out;
 }
 
-void json_cell(JsonWriter& json, const Cell& cell) {
+void json_cell(io::JsonWriter& json, const Cell& cell) {
   switch (cell.kind) {
     case Cell::Kind::Text:
       json.value(cell.text);
@@ -268,7 +268,7 @@ std::string report_html(const Report& report, const std::vector<fs::path>& figur
 
 std::string report_json(const Report& report, const std::vector<fs::path>& figures,
                         const std::string& generated) {
-  JsonWriter json;
+  io::JsonWriter json;
   json.begin_object();
   json.field("generated_at", generated).field("version", CARIESIM_VERSION);
   json.key("warnings").begin_array();
@@ -304,7 +304,7 @@ std::string report_json(const Report& report, const std::vector<fs::path>& figur
 }  // namespace
 
 ReportFiles write_report(const Report& report, const fs::path& out_dir, const FigureDrawer& draw) {
-  StagedFolder staged(out_dir, "report");
+  io::StagedFolder staged(out_dir, "report");
   const fs::path& dir = staged.staging();
   const std::string generated = utc_now_iso8601();
 

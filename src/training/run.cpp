@@ -4,30 +4,42 @@
 
 #include "cariesim/training/run.hpp"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
+#include <thread>
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/file.hpp"
+#include "cariesim/io/json.hpp"
+#include "cariesim/io/sqlite.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/training/scores.hpp"
-#include "record/sqlite.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 struct StudyRun::Db {
-  explicit Db(const fs::path& file) : db(file, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE) {}
-  Database db;
+  std::unique_ptr<Database> owner;
+  Database& db() { return *owner; }
 };
 
 namespace {
@@ -53,53 +65,272 @@ std::string host_name() {
   return name;
 }
 
-// A study database: a new file gets the schema; an existing one must be a study database of our version.
-void open_study_database(Database& db) {
-  const fs::path file(db.file());
-  db.exec("PRAGMA busy_timeout=5000", "cannot set the busy timeout");
-  int64_t application = 0;
-  {
-    Statement id(db, "PRAGMA application_id");
-    if (id.step() == SQLITE_ROW) application = id.integer(0);
-  }
-  bool empty = true;
-  {
-    Statement tables(db, "SELECT count(*) FROM sqlite_master");
-    if (tables.step() == SQLITE_ROW) empty = tables.integer(0) == 0;
-  }
-  if (empty && application == 0) {
-    // A new database: WAL (a crash loses nothing committed), the id, the schema, the version row.
-    {
-      Statement mode(db, "PRAGMA journal_mode=WAL");
-      if (mode.step() != SQLITE_ROW || mode.text(0) != "wal")
-        db.fail("cannot switch to WAL mode (the file system may not support it)");
+// ms SQLite's own busy handler waits inside one attempt; the attempts themselves back off from
+// kFirstBackoff, doubling up to kMaxBackoff, until RunOptions::lock_wait has passed.
+constexpr int kAttemptBusyMs = 250;
+constexpr auto kFirstBackoff = std::chrono::milliseconds(50);
+constexpr auto kMaxBackoff = std::chrono::milliseconds(1000);
+// Pending files merged per open, and the largest one read (a trial's answers and scores are a few kB).
+constexpr std::size_t kMaxPendingFiles = 100000;
+constexpr std::uintmax_t kMaxPendingBytes = std::uintmax_t{16} << 20;
+
+// Runs `attempt` until it does not meet another program's lock (io::LockedError), backing off
+// between tries; rethrows the last LockedError once `wait_s` seconds have passed.
+template <typename Attempt>
+void retry_while_locked(double wait_s, Attempt attempt) {
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(wait_s, 0.0));
+  auto backoff = std::chrono::duration_cast<std::chrono::steady_clock::duration>(kFirstBackoff);
+  for (;;) {
+    try {
+      attempt();
+      return;
+    } catch (const io::LockedError&) {
+      if (std::chrono::steady_clock::now() + backoff > deadline) throw;
     }
-    db.exec("BEGIN IMMEDIATE", "cannot begin creating the study database");
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min<std::chrono::steady_clock::duration>(backoff * 2, kMaxBackoff);
+  }
+}
+
+// One write transaction: BEGIN IMMEDIATE (where another writer's lock is met), `body`, COMMIT; any
+// failure rolls back and is rethrown (a lock as io::LockedError).
+template <typename Body>
+void write_transaction(Database& db, const std::string& what, Body body) {
+  db.exec("BEGIN IMMEDIATE", "cannot begin " + what);
+  try {
+    body();
+    db.exec("COMMIT", "cannot commit " + what);
+  } catch (...) {
+    db.try_exec("ROLLBACK");
+    throw;
+  }
+}
+
+// A new study database: WAL (a crash loses nothing committed), the id, the schema, the version row.
+void create_study_database(Database& db) {
+  {
+    Statement mode(db, "PRAGMA journal_mode=WAL");
+    if (mode.step() != SQLITE_ROW || mode.text(0) != "wal")
+      db.fail("cannot switch to WAL mode (the file system may not support it)");
+  }
+  write_transaction(db, "creating the study database", [&] {
     db.exec("PRAGMA application_id=" + std::to_string(kStudyApplicationId), "cannot set the application id");
     db.exec(std::string(kStudySchemaSql), "cannot create the study tables");
     Statement version(db, "INSERT INTO schema_version (version, application) VALUES (?, ?)");
     version.bind(0, int64_t{kStudySchemaVersion});
     version.bind(1, std::string(kStudyApplication));
     if (version.step() != SQLITE_DONE) db.fail("cannot write the schema version");
-    db.exec("COMMIT", "cannot commit the study tables");
-    return;
+  });
+}
+
+// The study database: created with the schema when there is no file (or an empty one); an existing
+// one opened through the defensive opener, checked to hold exactly the study schema of our version
+// (a trigger planted in it would rewrite later scores), retried while another program holds it.
+std::unique_ptr<Database> open_study_database(const fs::path& file, double lock_wait) {
+  std::error_code ec;
+  const bool exists = fs::exists(file, ec);
+  if (!exists || (fs::is_regular_file(file, ec) && fs::file_size(file, ec) == 0)) {
+    std::unique_ptr<Database> db = io::create_database(file);
+    sqlite3_busy_timeout(db->get(), kAttemptBusyMs);
+    retry_while_locked(lock_wait, [&] { create_study_database(*db); });
+    return db;
   }
-  if (application != kStudyApplicationId)
-    throw Error(fmt::format("{}: not a cariesim study database (application id 0x{:08x})", file.string(),
-                            static_cast<uint32_t>(application)));
-  Statement version(db, "SELECT version, application FROM schema_version");
-  if (version.step() != SQLITE_ROW || version.text(1) != kStudyApplication)
-    throw Error(fmt::format("{}: not a cariesim study database (no schema_version row)", file.string()));
-  if (version.integer(0) != kStudySchemaVersion)
-    throw Error(fmt::format("{}: study database schema version {} is not supported (this cariesim writes {})",
-                            file.string(), version.integer(0), kStudySchemaVersion));
-  db.exec("PRAGMA journal_mode=WAL", "cannot switch to WAL mode");
+  std::unique_ptr<Database> db;
+  retry_while_locked(lock_wait, [&] { db = io::open_for_append(file, study_schema(true)); });
+  sqlite3_busy_timeout(db->get(), kAttemptBusyMs);
+  retry_while_locked(lock_wait, [&] {
+    Statement mode(*db, "PRAGMA journal_mode=WAL");
+    if (mode.step() != SQLITE_ROW) db->fail("cannot switch to WAL mode");
+  });
+  return db;
+}
+
+// What a trial's end writes: the trial row's identity (checked again when merged later) and its
+// results.
+struct TrialWrite {
+  int64_t row = 0;
+  std::string station, participant, study, started_at;
+  int64_t trial = 0;
+  int64_t seed = 0;
+  std::string ended_at, recording, answers_json, scores_json;
+  std::vector<Score> scores;
+};
+
+// The results into the trial's row and the scores table (inside the caller's transaction).
+void write_results(Database& db, const TrialWrite& w) {
+  Statement update(
+      db, "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
+  update.bind(0, w.ended_at);
+  update.bind(1, w.recording);
+  update.bind(2, w.answers_json);
+  update.bind(3, w.scores_json);
+  update.bind(4, w.row);
+  if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
+  Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
+  for (const Score& s : w.scores) {
+    insert.reset();
+    insert.bind(0, w.row);
+    insert.bind(1, s.name);
+    insert.bind(2, s.level);
+    insert.bind(3, s.value);
+    insert.bind(4, s.unit);
+    if (insert.step() != SQLITE_DONE) db.fail(fmt::format("cannot write the score {}", s.name));
+  }
+}
+
+// The pending file of a trial whose results could not be written: JSON, numbers that must read
+// back exactly as text (shortest round-trip form), written to a temporary name, synced and renamed.
+fs::path write_pending(const fs::path& database, const TrialWrite& w) {
+  io::JsonWriter j;
+  j.begin_object();
+  j.field("format", 1).field("row", static_cast<long long>(w.row)).field("station", w.station);
+  j.field("participant", w.participant).field("study", w.study);
+  j.field("trial", static_cast<long long>(w.trial)).field("seed", static_cast<long long>(w.seed));
+  j.field("started_at", w.started_at).field("ended_at", w.ended_at).field("recording", w.recording);
+  j.field("answers", w.answers_json).field("scores_json", w.scores_json);
+  j.key("scores").begin_array();
+  for (const Score& s : w.scores) {
+    j.begin_object().field("name", s.name).field("level", s.level);
+    j.field("value", fmt::format("{}", s.value)).field("unit", s.unit).end_object();
+  }
+  j.end_array().end_object();
+  const std::string text = j.str() + "\n";
+
+  const fs::path dir = pending_folder(database);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw Error(
+        fmt::format("{}: cannot create the folder for pending results: {}", dir.string(), ec.message()));
+  const fs::path target = dir / fmt::format("trial-{}.json", w.row);
+  const fs::path temporary = dir / fmt::format(".trial-{}.json.{}", w.row, ::getpid());
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(fmt::format("{}: cannot write: {}", temporary.string(), std::strerror(errno)));
+  std::size_t done = 0;
+  bool ok = true;
+  while (ok && done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    ok = n > 0;
+    if (ok) done += static_cast<std::size_t>(n);
+  }
+  ok = ok && ::fsync(fd) == 0;
+  ok = ::close(fd) == 0 && ok;
+  if (!ok || std::rename(temporary.c_str(), target.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    fs::remove(temporary, ec);
+    throw Error(fmt::format("{}: cannot write the pending results: {}", target.string(), why));
+  }
+  return target;
+}
+
+// A pending file read back (as hostile as any input: strict fields, bounded size).
+TrialWrite read_pending(const fs::path& file) {
+  const std::string text = io::read_file(file, "pending trial results", kMaxPendingBytes);
+  YAML::Node node;
+  try {
+    node = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: not a pending trial result: {}", file.string(), e.what()));
+  }
+  const io::Reader r(file.string());
+  const io::Fields f(r, node, "",
+                     {"format", "row", "station", "participant", "study", "trial", "seed", "started_at",
+                      "ended_at", "recording", "answers", "scores_json", "scores"});
+  if (r.integer_in(f.require("format"), "format", 1, 1) != 1) r.fail(node, "format", "expected 1");
+  TrialWrite w;
+  w.row = r.integer_in(f.require("row"), "row", 1, std::numeric_limits<int64_t>::max());
+  w.station = r.text(f.require("station"), "station");
+  w.participant = r.text(f.require("participant"), "participant");
+  w.study = r.text(f.require("study"), "study");
+  w.trial = r.integer_in(f.require("trial"), "trial", 1, std::numeric_limits<int64_t>::max());
+  w.seed = r.integer_in(f.require("seed"), "seed", 0, std::numeric_limits<int64_t>::max());
+  w.started_at = r.text(f.require("started_at"), "started_at");
+  w.ended_at = r.text(f.require("ended_at"), "ended_at");
+  w.recording = r.text(f.require("recording"), "recording");
+  w.answers_json = r.text(f.require("answers"), "answers");
+  w.scores_json = r.text(f.require("scores_json"), "scores_json");
+  const YAML::Node scores = f.require("scores");
+  r.require_sequence(scores, "scores");
+  for (std::size_t i = 0; i < scores.size(); ++i) {
+    const std::string path = io::indexed("scores", i);
+    const io::Fields sf(r, scores[i], path, {"name", "level", "value", "unit"});
+    Score s;
+    s.name = r.text(sf.require("name"), sf.sub("name"));
+    s.level = r.text(sf.require("level"), sf.sub("level"));
+    const std::string value = r.text(sf.require("value"), sf.sub("value"));
+    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), s.value);
+    if (ec != std::errc() || end != value.data() + value.size() || !std::isfinite(s.value))
+      r.fail(sf.require("value"), sf.sub("value"), "expected a finite number");
+    s.unit = r.text(sf.require("unit"), sf.sub("unit"));
+    w.scores.push_back(std::move(s));
+  }
+  return w;
+}
+
+// Merges the pending results beside the database, oldest row first: each one whose trial row is
+// there, unfinished and the same trial (station, participant, study, number, seed, start) is written
+// in one transaction and its file removed; one already merged (the row has ended) is removed; one
+// that cannot be read or does not match stays, with a warning. Returns false when the database is
+// still locked (the rest wait for the next time).
+bool merge_pending(Database& db, const fs::path& database, double lock_wait) {
+  const fs::path dir = pending_folder(database);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return true;
+  std::vector<fs::path> files;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    if (files.size() >= kMaxPendingFiles) break;
+    const std::string name = e.path().filename().string();
+    if (name.starts_with("trial-") && name.ends_with(".json")) files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    TrialWrite w;
+    try {
+      w = read_pending(file);
+    } catch (const Error& e) {
+      spdlog::warn("{} (left in place, not merged)", e.what());
+      continue;
+    }
+    bool merged = false;
+    try {
+      retry_while_locked(lock_wait, [&] {
+        write_transaction(db, "merging pending results", [&] {
+          Statement row(db,
+                        "SELECT station, participant, study, trial, seed, started_at, ended_at FROM trials "
+                        "WHERE id = ?");
+          row.bind(0, w.row);
+          const int rc = row.step();
+          if (rc != SQLITE_ROW && rc != SQLITE_DONE) db.fail("cannot read trial " + std::to_string(w.row));
+          const bool same = rc == SQLITE_ROW && row.text(0) == w.station && row.text(1) == w.participant &&
+                            row.text(2) == w.study && row.integer(3) == w.trial && row.integer(4) == w.seed &&
+                            row.text(5) == w.started_at;
+          if (!same) {
+            spdlog::warn("{}: trial row {} of {} is not the trial these results belong to (left in place)",
+                         file.string(), w.row, database.string());
+            return;
+          }
+          if (!row.is_null(6)) {
+            merged = true;  // written before; the file outlived the commit
+            return;
+          }
+          write_results(db, w);
+          merged = true;
+        });
+      });
+    } catch (const io::LockedError&) {
+      return false;
+    }
+    if (merged) fs::remove(file, ec);
+  }
+  return true;
 }
 
 // The answers of a trial as trials.answers (docs/training.md, "the study database").
 std::string answers_json(const TrialSetup& setup, const TrialAnswers& a,
                          const std::vector<MarkJudgement>& judged) {
-  JsonWriter w;
+  io::JsonWriter w;
   w.begin_object();
   switch (setup.kind) {
     case StudyKind::Tuning:
@@ -172,7 +403,7 @@ std::string scores_json(const std::vector<Score>& scores) {
     if (l == g->second.end()) l = g->second.insert(g->second.end(), {s.level, {}});
     l->second.push_back(s.value);
   }
-  JsonWriter w;
+  io::JsonWriter w;
   const auto values = [&](const std::vector<double>& v) {
     if (v.size() == 1) {
       w.value(v.front());
@@ -202,6 +433,8 @@ std::string scores_json(const std::vector<Score>& scores) {
 
 }  // namespace
 
+fs::path pending_folder(const fs::path& database) { return fs::path(database.string() + "-pending"); }
+
 StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), options_(std::move(options)) {
   // The options, then the database, then the seed.
   check_participant(options_.participant);
@@ -214,8 +447,9 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
   std::error_code ec;
   if (const fs::path dir = options_.database.parent_path(); !dir.empty() && !fs::is_directory(dir, ec))
     throw Error(fmt::format("{}: the folder {} does not exist", options_.database.string(), dir.string()));
-  db_ = std::make_unique<Db>(options_.database);
-  open_study_database(db_->db);
+  db_ = std::make_unique<Db>();
+  db_->owner = open_study_database(options_.database, options_.lock_wait);
+  merge_pending(db_->db(), options_.database, options_.lock_wait);
   if (options_.seed) {
     seed_ = *options_.seed;
   } else if (study_.seed) {
@@ -236,43 +470,48 @@ const TrialSetup& StudyRun::begin_trial() {
   answers_.shapes.assign(setup_.cubes.size(), std::string());
   level_ = 0;
 
-  // The row (ended_at NULL) and its recording's path, in one transaction.
-  Database& db = db_->db;
-  db.exec("BEGIN IMMEDIATE", "cannot begin a trial");
+  // Pending results first, then the row (ended_at NULL) and its recording's path, in one
+  // transaction, retried while another program holds the database.
+  Database& db = db_->db();
+  merge_pending(db, options_.database, options_.lock_wait);
+  started_at_ = utc_now_iso8601();
   try {
-    Statement insert(
-        db,
-        "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
-        " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, NULL, NULL, '{}', '{}')");
-    insert.bind(0, options_.station);
-    insert.bind(1, options_.participant);
-    insert.bind(2, study_.name);
-    insert.bind(3, std::string(study_kind_name(study_.kind)));
-    insert.bind(4, int64_t{current_ + 1});
-    insert.bind(5, static_cast<int64_t>(setup_.seed));
-    insert.bind(6, utc_now_iso8601());
-    if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
-    row_ = sqlite3_last_insert_rowid(db.get());
-    // STUDY-PARTICIPANT-ROW.db, with -2, -3, ... when a file of that name is left from a database
-    // that was deleted (row ids then start over).
-    const fs::path base = options_.database.parent_path();
-    fs::path relative;
-    for (int n = 1;; ++n) {
-      const std::string suffix = n == 1 ? "" : fmt::format("-{}", n);
-      relative =
-          options_.recordings / fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
-      recording_path_ = fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
-      std::error_code ec;
-      if (!fs::exists(recording_path_, ec)) break;
-    }
-    Statement update(db, "UPDATE trials SET recording = ? WHERE id = ?");
-    update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
-    update.bind(1, row_);
-    if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's recording path");
-    db.exec("COMMIT", "cannot commit the trial row");
-  } catch (...) {
-    db.try_exec("ROLLBACK");
-    throw;
+    retry_while_locked(options_.lock_wait, [&] {
+      write_transaction(db, "a trial", [&] {
+        Statement insert(
+            db,
+            "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
+            " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, NULL, NULL, '{}', '{}')");
+        insert.bind(0, options_.station);
+        insert.bind(1, options_.participant);
+        insert.bind(2, study_.name);
+        insert.bind(3, std::string(study_kind_name(study_.kind)));
+        insert.bind(4, int64_t{current_ + 1});
+        insert.bind(5, static_cast<int64_t>(setup_.seed));
+        insert.bind(6, started_at_);
+        if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
+        row_ = sqlite3_last_insert_rowid(db.get());
+        // STUDY-PARTICIPANT-ROW.db, with -2, -3, ... when a file of that name is left from a database
+        // that was deleted (row ids then start over).
+        const fs::path base = options_.database.parent_path();
+        fs::path relative;
+        for (int n = 1;; ++n) {
+          const std::string suffix = n == 1 ? "" : fmt::format("-{}", n);
+          relative = options_.recordings /
+                     fmt::format("{}-{}-{}{}.db", study_.name, options_.participant, row_, suffix);
+          recording_path_ =
+              fs::absolute(relative.is_absolute() ? relative : base / relative).lexically_normal();
+          std::error_code exists_ec;
+          if (!fs::exists(recording_path_, exists_ec)) break;
+        }
+        Statement update(db, "UPDATE trials SET recording = ? WHERE id = ?");
+        update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
+        update.bind(1, row_);
+        if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's recording path");
+      });
+    });
+  } catch (const io::LockedError& e) {
+    throw Error(fmt::format("{} (for {} s; the trial did not begin)", e.what(), options_.lock_wait));
   }
   std::error_code ec;
   fs::create_directories(recording_path_.parent_path(), ec);
@@ -385,33 +624,30 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
     result.recording = stored;
   }
 
-  // Answers, scores, recording and ended_at in one transaction.
-  Database& db = db_->db;
-  db.exec("BEGIN IMMEDIATE", "cannot begin ending the trial");
+  // Answers, scores, recording and ended_at in one transaction, retried while another program
+  // holds the database; when it stays locked, into a pending file beside it (never dropped).
+  TrialWrite write;
+  write.row = row_;
+  write.station = options_.station;
+  write.participant = options_.participant;
+  write.study = study_.name;
+  write.started_at = started_at_;
+  write.trial = current_ + 1;
+  write.seed = static_cast<int64_t>(setup_.seed);
+  write.ended_at = utc_now_iso8601();
+  write.recording = stored;
+  write.answers_json = result.answers_json;
+  write.scores_json = result.scores_json;
+  write.scores = result.scores;
+  Database& db = db_->db();
   try {
-    Statement update(
-        db,
-        "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
-    update.bind(0, utc_now_iso8601());
-    update.bind(1, stored);
-    update.bind(2, result.answers_json);
-    update.bind(3, result.scores_json);
-    update.bind(4, row_);
-    if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
-    Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
-    for (const Score& s : result.scores) {
-      insert.reset();
-      insert.bind(0, row_);
-      insert.bind(1, s.name);
-      insert.bind(2, s.level);
-      insert.bind(3, s.value);
-      insert.bind(4, s.unit);
-      if (insert.step() != SQLITE_DONE) db.fail(fmt::format("cannot write the score {}", s.name));
-    }
-    db.exec("COMMIT", "cannot commit the trial's scores");
-  } catch (...) {
-    db.try_exec("ROLLBACK");
-    throw;
+    retry_while_locked(options_.lock_wait, [&] {
+      write_transaction(db, "the trial's scores", [&] { write_results(db, write); });
+    });
+  } catch (const io::LockedError& e) {
+    result.pending = write_pending(options_.database, write);
+    spdlog::warn("{} (for {} s): trial {}'s answers and scores are kept in {} until it can be written",
+                 e.what(), options_.lock_wait, current_ + 1, result.pending.string());
   }
   in_trial_ = false;
   ++current_;

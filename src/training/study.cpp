@@ -14,16 +14,16 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "scene/yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "training/builtin_studies.hpp"
 #include "training/draws.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
-using scene_detail::Fields;
-using scene_detail::indexed;
-using scene_detail::Reader;
+using io::Fields;
+using io::indexed;
+using io::Reader;
 
 namespace {
 

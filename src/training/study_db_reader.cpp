@@ -1,6 +1,7 @@
 // Reading study databases (study_schema.hpp) for `cariesim report` and merging the databases of many
 // stations: only the columns the schema file names are read, so columns a later writer adds do not
 // matter.
+#include <fmt/format.h>
 #include <sqlite3.h>
 
 #include <algorithm>
@@ -11,75 +12,80 @@
 #include <tuple>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/sqlite.hpp"
 #include "cariesim/training/report.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/training/run.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
 
 namespace fs = std::filesystem;
-using record::Database;
-using record::Statement;
+using io::Database;
+using io::Statement;
 
 namespace {
 
-// The application id as its four characters ("CRST"), or its number when it is not printable.
-std::string application_name(int id) {
-  std::string name;
-  for (int shift = 24; shift >= 0; shift -= 8) {
-    const char c = static_cast<char>((static_cast<unsigned>(id) >> shift) & 0xFFU);
-    if (c < 0x20 || c > 0x7E) return std::to_string(id);
-    name.push_back(c);
-  }
-  return "\"" + name + "\"";
+// Where a bad value is: "FILE: TABLE, row N (CONTEXT), column C".
+std::string where(const std::string& file, std::string_view table, std::int64_t row,
+                  const std::string& context, std::string_view column) {
+  return file + ": " + std::string(table) + ", row " + std::to_string(row) +
+         (context.empty() ? std::string() : " (" + context + ")") + ", column " + std::string(column);
 }
 
-// Opens `file` read-only and checks that it is a study database of this schema version.
-std::unique_ptr<Database> open_study_database(const fs::path& file) {
+// Typed reads of one column: the stored type must be the declared one (SQLite keeps any type in
+// any column), else the row is refused by name.
+std::int64_t integer_column(const Statement& row, int column, const std::string& at) {
+  if (row.type(column) != SQLITE_INTEGER)
+    throw Error(at + ": stored as " + std::string(io::type_name(row.type(column))) + ", expected an INTEGER");
+  return row.integer(column);
+}
+
+std::string text_column(const Statement& row, int column, const std::string& at) {
+  if (row.type(column) != SQLITE_TEXT)
+    throw Error(at + ": stored as " + std::string(io::type_name(row.type(column))) + ", expected TEXT");
+  return row.text(column);
+}
+
+double real_column(const Statement& row, int column, const std::string& at) {
+  if (row.type(column) != SQLITE_FLOAT)
+    throw Error(at + ": stored as " + std::string(io::type_name(row.type(column))) +
+                ", expected a REAL number");
+  return row.real(column);
+}
+
+// A score row against its rule (study_schema.hpp): unit, level, range, whole numbers for counts.
+void check_score(const TrialScore& s, const ScoreRule& rule, const std::string& file, std::int64_t row,
+                 const std::string& context) {
+  if (s.unit != rule.unit)
+    throw Error(where(file, "scores", row, context, "unit") + ": '" + s.unit + "' is not the unit of " +
+                std::string(rule.name) + " ('" + std::string(rule.unit) + "')");
+  if (std::find(rule.levels.begin(), rule.levels.end(), s.level) == rule.levels.end()) {
+    std::string levels;
+    for (const std::string_view l : rule.levels) levels += (levels.empty() ? "" : ", ") + std::string(l);
+    throw Error(where(file, "scores", row, context, "level") + ": '" + s.level + "' is not a level of " +
+                std::string(rule.name) + " (" + (levels.empty() ? "none" : levels) + ")");
+  }
+  if (!std::isfinite(s.value) || s.value < rule.lo || s.value > rule.hi ||
+      (rule.integral && s.value != std::floor(s.value)))
+    throw Error(fmt::format("{}: {} is not a value of {} (expected {} in [{}, {}]{})",
+                            where(file, "scores", row, context, "value"), s.value, rule.name,
+                            rule.integral ? "a whole number" : "a number", rule.lo, rule.hi,
+                            rule.unit.empty() ? "" : " " + std::string(rule.unit)));
+}
+
+// Trial results waiting beside a database (run.cpp writes them while it is locked), counted up to a
+// bound; they are read only by the run that merges them.
+std::size_t count_pending(const fs::path& database) {
+  constexpr std::size_t kMaxCounted = 100000;
   std::error_code ec;
-  if (!fs::exists(file, ec)) throw Error(file.string() + ": no such study database");
-  if (fs::is_directory(file, ec)) throw Error(file.string() + ": is a folder, not a study database");
-  auto db = std::make_unique<Database>(file, SQLITE_OPEN_READONLY);
-  db->exec("PRAGMA busy_timeout=2000", "cannot set the busy timeout");
-
-  // The application id tells a study database from a recording or any other SQLite file; the first
-  // read also fails on a file that is not SQLite at all.
-  int application_id = 0;
-  {
-    std::unique_ptr<Statement> pragma;
-    try {
-      pragma = std::make_unique<Statement>(*db, "PRAGMA application_id");
-    } catch (const Error&) {
-      throw Error(file.string() + ": not a study database (" + db->message() + ")");
-    }
-    const int rc = pragma->step();
-    if (rc != SQLITE_ROW) throw Error(file.string() + ": not a study database (" + db->message() + ")");
-    application_id = static_cast<int>(pragma->integer(0));
+  const fs::path dir = pending_folder(database);
+  if (!fs::is_directory(dir, ec)) return 0;
+  std::size_t count = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.starts_with("trial-") && name.ends_with(".json") && ++count >= kMaxCounted) break;
   }
-  if (application_id != kStudyApplicationId)
-    throw Error(file.string() + ": not a study database (application id " + application_name(application_id) +
-                (application_id == 0x4352534D ? ", a cariesim session recording" : "") +
-                ", a study database has " + application_name(kStudyApplicationId) + ")");
-
-  // The schema version: this reader knows version kStudySchemaVersion only.
-  std::unique_ptr<Statement> version;
-  try {
-    version = std::make_unique<Statement>(*db, "SELECT version FROM schema_version");
-  } catch (const Error&) {
-    throw Error(file.string() + ": not a study database (" + db->message() + ")");
-  }
-  if (version->step() != SQLITE_ROW)
-    throw Error(file.string() + ": not a study database (schema_version has no row)");
-  const std::int64_t v = version->integer(0);
-  if (v > kStudySchemaVersion)
-    throw Error(file.string() + ": study database schema version " + std::to_string(v) +
-                " is newer than this cariesim reads (" + std::to_string(kStudySchemaVersion) +
-                "); report it with a newer cariesim");
-  if (v != kStudySchemaVersion)
-    throw Error(file.string() + ": study database schema version " + std::to_string(v) +
-                " is not supported (this cariesim reads version " + std::to_string(kStudySchemaVersion) +
-                ")");
-  return db;
+  return count;
 }
 
 // "FILE#id": where a trial row came from.
@@ -101,13 +107,15 @@ bool same_content(const StudyTrial& a, const StudyTrial& b) {
 }  // namespace
 
 std::vector<StudyTrial> read_study_database(const fs::path& file) {
-  const std::unique_ptr<Database> db = open_study_database(file);
+  // Read-only through the defensive opener: exactly the study schema, none of the file's own SQL,
+  // bounded work, nothing made beside the file (io/sqlite.hpp).
+  const std::unique_ptr<Database> db = io::open_input(file, study_schema(false));
   const std::string name = file.string();
   std::vector<StudyTrial> trials;
   // One read transaction, so a station still writing cannot change the file between the queries.
   db->exec("BEGIN", "cannot begin reading");
 
-  // The trial rows, then their scores.
+  // The trial rows, each column of its declared type.
   std::map<std::int64_t, std::size_t> by_id;
   {
     Statement rows(
@@ -119,41 +127,52 @@ std::vector<StudyTrial> read_study_database(const fs::path& file) {
       StudyTrial t;
       t.file = name;
       t.id = rows.integer(0);
-      t.station = rows.text(1);
-      t.participant = rows.text(2);
-      t.study = rows.text(3);
-      t.kind = rows.text(4);
-      t.trial = rows.integer(5);
-      t.seed = rows.integer(6);
-      t.started_at = rows.text(7);
-      if (!rows.is_null(8)) t.ended_at = rows.text(8);
+      const auto at = [&](std::string_view column) { return where(name, "trials", t.id, "", column); };
+      t.station = text_column(rows, 1, at("station"));
+      t.participant = text_column(rows, 2, at("participant"));
+      t.study = text_column(rows, 3, at("study"));
+      t.kind = text_column(rows, 4, at("kind"));
+      t.trial = integer_column(rows, 5, at("trial"));
+      if (t.trial < 1)
+        throw Error(at("trial") + ": " + std::to_string(t.trial) + " is not a trial number (from 1)");
+      t.seed = integer_column(rows, 6, at("seed"));
+      if (t.seed < 0) throw Error(at("seed") + ": " + std::to_string(t.seed) + " is not a trial seed (>= 0)");
+      t.started_at = text_column(rows, 7, at("started_at"));
+      if (!rows.is_null(8)) t.ended_at = text_column(rows, 8, at("ended_at"));
       by_id[t.id] = trials.size();
       trials.push_back(std::move(t));
     }
     if (rc != SQLITE_DONE) db->fail("cannot read the trials");
   }
+
+  // Their scores: each known score checked against its rule; a score this cariesim does not know
+  // (a later one's) is not used by any table and is left out.
   {
-    Statement rows(*db, "SELECT trial_id, name, level, value, unit FROM scores ORDER BY rowid");
+    Statement rows(*db, "SELECT rowid, trial_id, name, level, value, unit FROM scores ORDER BY rowid");
     int rc = SQLITE_ROW;
     while ((rc = rows.step()) == SQLITE_ROW) {
-      const std::int64_t trial_id = rows.integer(0);
+      const std::int64_t row = rows.integer(0);
+      const std::int64_t trial_id = integer_column(rows, 1, where(name, "scores", row, "", "trial_id"));
       const auto it = by_id.find(trial_id);
       if (it == by_id.end())
         throw Error(name + ": scores: a score of trial id " + std::to_string(trial_id) +
-                    " that the trials table lacks");
+                    " that the trials table lacks (row " + std::to_string(row) + ")");
       TrialScore s;
-      s.name = rows.text(1);
-      s.level = rows.text(2);
-      s.value = rows.real(3);
-      s.unit = rows.text(4);
-      if (!std::isfinite(s.value))
-        throw Error(name + ": scores: trial id " + std::to_string(trial_id) + ", score '" + s.name +
-                    "': the value is not a finite number");
+      s.name =
+          text_column(rows, 2, where(name, "scores", row, "trial id " + std::to_string(trial_id), "name"));
+      const std::string context = "trial id " + std::to_string(trial_id) + ", score '" + s.name + "'";
+      s.level = text_column(rows, 3, where(name, "scores", row, context, "level"));
+      s.value = real_column(rows, 4, where(name, "scores", row, context, "value"));
+      s.unit = text_column(rows, 5, where(name, "scores", row, context, "unit"));
+      const ScoreRule* rule = find_score_rule(s.name);
+      if (rule == nullptr) continue;
+      check_score(s, *rule, name, row, context);
       trials[it->second].scores.push_back(std::move(s));
     }
     if (rc != SQLITE_DONE) db->fail("cannot read the scores");
   }
   db->exec("COMMIT", "cannot end reading");
+  db->check_input_unchanged();
   return trials;
 }
 
@@ -179,6 +198,7 @@ MergedStudies merge_study_databases(const std::vector<fs::path>& files) {
     std::vector<StudyTrial> trials = read_study_database(file);
     seen.push_back(file);
     input.trials = trials.size();
+    input.pending = count_pending(file);
 
     // Each row once: a copy of a row already read is left out, unless it finished and the kept one
     // did not.

@@ -4,6 +4,9 @@
 // merges across stations. The motion of each trial is an ordinary session recording (record module)
 // that the trial row names; the scores are kept in long form so a report needs no study-specific code.
 #include <string_view>
+#include <vector>
+
+#include "cariesim/io/sqlite.hpp"
 
 namespace cariesim::training {
 
@@ -59,5 +62,27 @@ inline constexpr std::string_view kScoreSoftTissuePeak = "soft_tissue_peak_force
 inline constexpr std::string_view kScoreEnamelExcessTime = "enamel_excess_force_time";  // s
 inline constexpr std::string_view kScoreEnamelPeak = "enamel_peak_force";     // N
 inline constexpr std::string_view kScoreBlockedInsertions = "blocked_insertions";  // count
+
+/// The shapes a boundary study hides (a shape_correct score's level is one of them).
+inline constexpr std::string_view kBoundaryShapes[] = {"square", "triangle", "circle"};
+
+/// What a stored score may hold, as the study kinds write it: its unit, its levels and its range.
+/// The report refuses any other unit, level or value of a known score, naming the row.
+struct ScoreRule {
+  std::string_view name;
+  std::string_view unit;
+  std::vector<std::string_view> levels;  ///< "" for a score without a level
+  double lo = 0.0, hi = 0.0;             ///< in `unit`
+  bool integral = false;                 ///< a count or a 0/1 answer
+};
+
+/// The rule of score `name`; null for a name this cariesim does not write (a later one may).
+const ScoreRule* find_score_rule(std::string_view name);
+
+/// What a study database holds, for io::open_input and io::open_for_append: the application id,
+/// the version row (version kStudySchemaVersion; when `appending`, also application kStudyApplication)
+/// and exactly the tables and index of kStudySchemaSql with their columns. A study database from
+/// another station is an input from elsewhere: nothing else in it is accepted (docs/reports.md).
+io::Schema study_schema(bool appending);
 
 }  // namespace cariesim::training

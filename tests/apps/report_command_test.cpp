@@ -1,10 +1,17 @@
 // `cariesim report DB... --out DIR` on two stations' study databases, and on bad input.
+#include <fcntl.h>
+#include <grp.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "apps/apps_support.hpp"
 #include "support/files.hpp"
@@ -127,6 +134,103 @@ TEST_F(ReportCommand, BadDatabaseNamesTheFileAndWritesNothing) {
   r = test::run_cariesim("report --out '" + out.string() + "'", dir_);
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.err.find("DB"), std::string::npos) << r.err;
+}
+
+// The example's station databases are the ones `cariesim study run` writes: another participant's
+// trials append to them (the example wrote application 'cariesim', and appending said "no
+// schema_version row").
+TEST_F(ReportCommand, TheExampleStationsTakeMoreTrials) {
+  if (std::system("/usr/bin/python3 -c 'import sqlite3' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "/usr/bin/python3 is missing";
+  const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/examples/make_example_study.py";
+  ASSERT_EQ(std::system(
+                ("/usr/bin/python3 '" + script + "' '" + (dir_ / "class").string() + "' >/dev/null").c_str()),
+            0);
+  const std::string examples = std::string(CARIESIM_SOURCE_DIR) + "/studies/examples/";
+  const fs::path station = dir_ / "class" / "station-a.db";
+  const test::CommandResult r = test::run_cariesim(
+      "study run '" + examples + "boundary-small.yaml' --participant D6 --device 'scripted:" + examples +
+          "slide-cube1.csv' --answers '" + examples + "boundary-answers.yaml' --out '" + station.string() +
+          "' --quiet",
+      dir_);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const test::CommandResult report = test::run_cariesim(
+      "report '" + station.string() + "' --out '" + (dir_ / "report").string() + "' --no-figures", dir_);
+  ASSERT_EQ(report.status, 0) << report.err;
+  EXPECT_NE(read_text(dir_ / "report" / "boundary.csv").find("D6,"), std::string::npos);
+}
+
+// `cariesim report` run by a user who cannot write where the station databases lie (a read-only
+// medium: their folder is not writable; as root, the command runs as nobody): WAL-mode databases
+// were "not a study database (unable to open database file)". Now they are read as they are, one
+// of them with its -wal beside it (a copy taken while the station ran), and nothing is made there.
+TEST_F(ReportCommand, ReadsStationsOnAReadOnlyMedium) {
+  const fs::path medium = dir_ / "medium";
+  fs::create_directories(medium);
+  {
+    test::StudyDbWriter a(medium / "station-a.db", "station-a");
+    a.db().exec("PRAGMA journal_mode=WAL", "WAL");
+    a.trial("P1", "tuning", "tuning", 1, "2026-11-20T09:00:00Z", "2026-11-20T09:05:00Z",
+            {{"mu_s", "mild", 0.1, ""}, {"mu_s", "severe", 0.5, ""}});
+  }
+  {
+    // station-b as copied while its station wrote: the .db and its -wal, no -shm.
+    test::StudyDbWriter b(dir_ / "live.db", "station-b");
+    b.db().exec("PRAGMA journal_mode=WAL; PRAGMA wal_autocheckpoint=0", "WAL");
+    b.trial("P2", "tuning", "tuning", 1, "2026-11-21T09:00:00Z", "2026-11-21T09:05:00Z",
+            {{"mu_s", "mild", 0.3, ""}, {"mu_s", "severe", 0.8, ""}});
+    fs::copy_file(dir_ / "live.db", medium / "station-b.db");
+    fs::copy_file(dir_ / "live.db-wal", medium / "station-b.db-wal");
+  }
+  const auto listing = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(medium)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const std::vector<std::string> before = listing();
+  fs::permissions(medium, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                              fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  fs::permissions(dir_, fs::perms::all);
+  const fs::path out = dir_ / "report";
+  const fs::path err = dir_ / "stderr.txt";
+
+  // The command, as a user who cannot write into the medium.
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (::geteuid() == 0 && (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0))
+      ::_exit(77);
+    if (::access(medium.c_str(), W_OK) == 0) ::_exit(78);  // the medium is writable after all
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
+    if (fd >= 0) ::dup2(fd, 2);
+    const std::string a = (medium / "station-a.db").string();
+    const std::string b = (medium / "station-b.db").string();
+    const std::string o = out.string();
+    const char* exe = CARIESIM_EXE;
+    char* const argv[] = {const_cast<char*>(exe),
+                          const_cast<char*>("report"),
+                          const_cast<char*>(a.c_str()),
+                          const_cast<char*>(b.c_str()),
+                          const_cast<char*>("--out"),
+                          const_cast<char*>(o.c_str()),
+                          const_cast<char*>("--no-figures"),
+                          nullptr};
+    ::execv(exe, argv);
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  fs::permissions(medium, fs::perms::owner_all, fs::perm_options::add);
+  ASSERT_TRUE(WIFEXITED(status));
+  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "cannot run the command as another user";
+  if (WEXITSTATUS(status) == 78) GTEST_SKIP() << "no way to make a folder unwritable here";
+  ASSERT_EQ(WEXITSTATUS(status), 0) << read_text(err);
+  EXPECT_NE(read_text(err).find("2 database(s), 2 finished trial(s)"), std::string::npos) << read_text(err);
+  const std::string table = read_text(out / "table1_roughness.csv");
+  EXPECT_NE(table.find("P1,"), std::string::npos) << table;
+  EXPECT_NE(table.find("P2,"), std::string::npos) << "the row in station-b's -wal is read: " << table;
+  EXPECT_EQ(listing(), before) << "no -shm or -wal made beside the inputs";
 }
 
 }  // namespace

@@ -41,12 +41,13 @@ TEST(LoadRecording, RejectsOtherDatabasesAndVersions) {
 
   const auto future = dir / "future.db";
   run_sql(future,
+          "PRAGMA application_id=1129468749;"  // "CRSM", a recording's
           "CREATE TABLE schema_version (version INTEGER, application TEXT);"
           "INSERT INTO schema_version VALUES (99, 'cariesim');");
   EXPECT_THAT(load_error(future), HasSubstr("schema version 99 is not supported"));
 
-  EXPECT_THAT(load_error(dir / "absent.db"), HasSubstr("no such recording"));
-  EXPECT_THAT(load_error(dir.path()), HasSubstr("is a directory"));
+  EXPECT_THAT(load_error(dir / "absent.db"), HasSubstr("no such cariesim recording"));
+  EXPECT_THAT(load_error(dir.path()), HasSubstr("is a folder, not a cariesim recording"));
 }
 
 TEST(LoadRecording, MissingSessionRowIsReported) {

@@ -4,6 +4,7 @@
 // deterministic), while recorded_graphic() gives the ghost at the same times.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <thread>
 
 #include "cariesim/experiment/simulate.hpp"
@@ -72,6 +73,10 @@ TEST(ReplayEngine, ReplayReproducesTheRecordedSession) {
   int sliding = 0;
   for (std::size_t i = 0; i < run.size(); ++i) {
     const double now = static_cast<double>(i) / rate;
+    // The file is streamed ahead of the servo clock; this loop runs faster than real time, so it
+    // waits for the loader as the real-time servo thread never has to.
+    for (int wait = 0; !replay.ready(now) && wait < 10000; ++wait)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
     const StepOutput out = step(model, state, HapticInput{replay.read(now).pose, 1.0 / rate});
     const StepOutput& recorded = run[i].out;
     ASSERT_LT((out.graphic.p - recorded.graphic.p).norm(), 1e-9) << i;

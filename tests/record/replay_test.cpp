@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "cariesim/common/error.hpp"
 #include "record/record_support.hpp"
@@ -134,6 +136,70 @@ TEST(ReplayDevice, FromARecordedFile) {
 
   EXPECT_THROW(make_replay_device(dir / "absent.db"), Error);
   EXPECT_THROW(ReplayDevice(Recording{}), Error);
+}
+
+// A file is streamed: the device holds at most kReplayReadAhead samples however long the recording
+// (here three buffers and more), and plays every recorded pose at its sample time, in order.
+TEST(ReplayDevice, StreamsAFileWithBoundedMemory) {
+  test::ScratchDir dir("replay_stream");
+  const auto file = dir / "long.db";
+  constexpr double kFast = 4000.0;  // Hz
+  const std::size_t count = 3 * kReplayReadAhead + 123;
+  {
+    RecorderOptions options;
+    options.queue_capacity = count;
+    Recorder recorder(file, test::synthetic_session(kFast), options);
+    for (std::size_t i = 0; i < count; ++i)
+      ASSERT_TRUE(recorder.queue().push(test::synthetic_sample(i, kFast)));
+    recorder.start();
+    recorder.stop();
+  }
+  ReplayDevice device(file, false);
+  EXPECT_EQ(device.size(), count);
+  EXPECT_LE(device.buffered_samples(), kReplayReadAhead);
+  for (std::size_t i = 0; i < count; ++i) {
+    const ServoSample expected = test::synthetic_sample(i, kFast);
+    // The loader runs ahead on its own thread; this loop plays faster than real time, so it waits
+    // for the samples as a real-time servo thread never has to.
+    for (int wait = 0; !device.ready(expected.t) && wait < 10000; ++wait)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    const DeviceState state = device.read(expected.t);
+    ASSERT_LT((state.pose.p - expected.haptic.p).norm(), 1e-12) << i;
+    ASSERT_LT(angle_between(state.pose.q, expected.haptic.q), 1e-9) << i;
+    ASSERT_EQ(state.buttons, expected.buttons) << i;
+  }
+  EXPECT_LE(device.max_buffered_samples(), kReplayReadAhead) << "bounded, whatever the recording's length";
+  EXPECT_LT(device.max_buffered_samples(), count);
+  EXPECT_FALSE(device.read(test::synthetic_sample(count - 1, kFast).t + 1.0).valid) << "the end";
+  // The look-up (the ghost tool's) reads the file at any time.
+  const ServoSample middle = test::synthetic_sample(count / 2, kFast);
+  EXPECT_LT((device.recorded_graphic(middle.t).p - middle.graphic.p).norm(), 1e-12);
+  EXPECT_EQ(device.recorded(middle.t).state, middle.state);
+}
+
+// A looping file starts again after one sample interval, as an in-memory recording does.
+TEST(ReplayDevice, AStreamedFileLoops) {
+  test::ScratchDir dir("replay_stream_loop");
+  const auto file = dir / "loop.db";
+  {
+    Recorder recorder(file, test::synthetic_session(kRate));
+    for (std::size_t i = 0; i < kCount; ++i)
+      ASSERT_TRUE(recorder.queue().push(test::synthetic_sample(i, kRate)));
+    recorder.start();
+    recorder.stop();
+  }
+  ReplayDevice looping(file, true);
+  const double period = test::synthetic_sample(kCount - 1, kRate).t + 1.0 / kRate;
+  for (int cycle = 0; cycle < 3; ++cycle) {
+    for (std::size_t i = 0; i < kCount; i += 11) {
+      const double now = cycle * period + test::synthetic_sample(i, kRate).t;
+      for (int wait = 0; !looping.ready(now) && wait < 10000; ++wait)
+        std::this_thread::sleep_for(std::chrono::microseconds(100));
+      const DeviceState state = looping.read(now);
+      EXPECT_TRUE(state.valid);
+      ASSERT_LT((state.pose.p - test::synthetic_sample(i, kRate).haptic.p).norm(), 1e-9) << cycle << " " << i;
+    }
+  }
 }
 
 }  // namespace

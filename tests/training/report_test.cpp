@@ -374,7 +374,7 @@ TEST_F(ReportTest, DuplicatesAreCountedOnce) {
   fs::copy_file(dir_ / "station-b.db", dir_ / "station-b-copy.db");
   // The copy's unfinished trial finished later on the station (its end time and a score changed).
   {
-    record::Database copy(dir_ / "station-b-copy.db", SQLITE_OPEN_READWRITE);
+    io::Database copy(dir_ / "station-b-copy.db", SQLITE_OPEN_READWRITE);
     copy.exec("UPDATE trials SET ended_at = '2026-11-21T09:15:00Z' WHERE trial = 3 AND study = 'tuning'",
               "finish");
   }
@@ -438,7 +438,7 @@ TEST_F(ReportTest, BadInputsAreRefusedNamingTheFile) {
 
   const fs::path other = dir_ / "other.db";
   {
-    record::Database db(other, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+    io::Database db(other, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
     db.exec("CREATE TABLE patients (name TEXT)", "create");
   }
   EXPECT_THAT(error_of({other}), HasSubstr(other.string() + ": not a study database (application id 0"));

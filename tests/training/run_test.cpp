@@ -128,7 +128,10 @@ TEST(StudyRun, RefusesWhatIsNotAStudyDatabase) {
     StudyRun run(boundary_small(), options(dir / "session.db"));
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("not a cariesim study database"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(
+                  "not a study database (application id \"CRSM\", a cariesim session recording"),
+              std::string::npos)
+        << e.what();
   }
   EXPECT_THROW(StudyRun(boundary_small(), options(dir / "missing-folder" / "x.db")), Error);
   EXPECT_THROW(StudyRun(boundary_small(), options(dir / "x.db", "")), Error);

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "cariesim/training/report.hpp"
-#include "record/sqlite.hpp"
+#include "cariesim/io/sqlite.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::test {
@@ -34,7 +34,7 @@ class StudyDbWriter {
                      std::int64_t number, const std::string& started_at,
                      const std::optional<std::string>& ended_at,
                      const std::vector<training::TrialScore>& scores, std::int64_t seed = 42) {
-    record::Statement insert(
+    io::Statement insert(
         db_,
         "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at,"
         " ended_at, recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, '{}', '{}')");
@@ -48,7 +48,7 @@ class StudyDbWriter {
     if (ended_at) insert.bind(7, *ended_at);  // unbound stays NULL
     if (insert.step() != SQLITE_DONE) db_.fail("insert a trial");
     const std::int64_t id = sqlite3_last_insert_rowid(db_.get());
-    record::Statement score(db_,
+    io::Statement score(db_,
                             "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
     for (const training::TrialScore& s : scores) {
       score.reset();
@@ -62,10 +62,10 @@ class StudyDbWriter {
     return id;
   }
 
-  record::Database& db() { return db_; }
+  io::Database& db() { return db_; }
 
  private:
-  record::Database db_;
+  io::Database db_;
   std::string station_;
 };
 

@@ -53,6 +53,9 @@ struct MergedStudies {
     std::size_t finished = 0;      ///< of them with ended_at
     std::size_t duplicates = 0;    ///< of them left out as duplicates
     bool same_file_again = false;  ///< the same file (after resolving links) was given before
+    /// Trial results waiting beside it (run.hpp pending_folder: the database was locked when they
+    /// ended); not in the database yet, so not in the report.
+    std::size_t pending = 0;
   };
   std::vector<Input> inputs;
   std::vector<StudyTrial> finished;    ///< unique finished trials, by participant then start time

@@ -47,6 +47,9 @@ struct RunOptions {
   /// "DB-recordings" beside the database (DB its file name without extension), so two databases in
   /// one folder never share a recording name.
   std::filesystem::path recordings;
+  /// s a write to the database waits for another program's lock (retrying with a growing backoff)
+  /// before a trial's answers and scores go to a pending file beside it (pending_folder()).
+  double lock_wait = 10.0;
 };
 
 /// A diagnosis mark: the participant held the tip here and pressed the mark key or button.
@@ -91,13 +94,23 @@ struct TrialResult {
   std::vector<Score> scores;
   std::string answers_json;  ///< trials.answers
   std::string scores_json;   ///< trials.scores
+  /// Empty when the results are in the database. Else the database stayed locked by another program
+  /// for RunOptions::lock_wait: the pending file that holds them (in pending_folder()), merged into
+  /// the database when it is next opened or a trial next begins.
+  std::filesystem::path pending;
 };
+
+/// The folder beside a study database where trial results wait while the database is locked:
+/// DATABASE-pending (e.g. class.db-pending/trial-7.json for trials.id 7).
+std::filesystem::path pending_folder(const std::filesystem::path& database);
 
 class StudyRun {
  public:
-  /// Opens (or creates, with the schema) the study database and draws the study seed. Throws
-  /// cariesim::Error naming the file and the reason (not a study database, another schema version,
-  /// unwritable) or the bad option (empty or malformed participant, trial count < 1).
+  /// Opens (or creates, with the schema) the study database and draws the study seed. An existing
+  /// database is checked as any input (io::open_for_append: exactly the study schema, so no trigger
+  /// or view of its own), then the pending results beside it are merged. Throws cariesim::Error
+  /// naming the file and the reason (not a study database, another schema version, unwritable,
+  /// locked by another program) or the bad option (empty or malformed participant, trial count < 1).
   StudyRun(Study study, RunOptions options);
   ~StudyRun();
   StudyRun(const StudyRun&) = delete;
@@ -116,8 +129,9 @@ class StudyRun {
   /// True between begin_trial() and end_trial().
   [[nodiscard]] bool in_trial() const { return in_trial_; }
 
-  /// Makes the current trial (make_trial with its seed) and commits its row (ended_at NULL). Throws
-  /// cariesim::Error when finished, already in a trial, or the database cannot be written.
+  /// Makes the current trial (make_trial with its seed) and commits its row (ended_at NULL), after
+  /// merging pending results. A lock held by another program is waited for (RunOptions::lock_wait).
+  /// Throws cariesim::Error when finished, already in a trial, or the database cannot be written.
   const TrialSetup& begin_trial();
   /// The current trial's setup (valid after begin_trial()).
   [[nodiscard]] const TrialSetup& setup() const { return setup_; }
@@ -149,8 +163,10 @@ class StudyRun {
   /// and writes answers, scores, the recording's path and ended_at in one transaction. A diagnosis
   /// trial judges the marks against `model`'s lesions (the model built from setup().scene(), whose
   /// lesions are snapped onto the teeth); without one the scene is built here (a tree-cache hit
-  /// after the trial ran). Throws cariesim::Error naming what failed (no trial begun, an
-  /// unreadable recording, incomplete answers: a tuning level not confirmed); the row then stays
+  /// after the trial ran). When another program holds the database locked for longer than
+  /// RunOptions::lock_wait, the results are never dropped: they go to a pending file
+  /// (TrialResult::pending) merged later. Throws cariesim::Error naming what failed (no trial begun,
+  /// an unreadable recording, incomplete answers: a tuning level not confirmed); the row then stays
   /// with ended_at NULL and the trial stays current.
   TrialResult end_trial(const std::filesystem::path& recording, const Model* model = nullptr);
   /// Leaves the current trial unfinished (its row keeps ended_at NULL) and moves to the next.
@@ -166,6 +182,7 @@ class StudyRun {
   int current_ = 0;
   bool in_trial_ = false;
   int64_t row_ = 0;
+  std::string started_at_;  // the current trial's trials.started_at
   TrialSetup setup_;
   std::filesystem::path recording_path_;
   TrialAnswers answers_;

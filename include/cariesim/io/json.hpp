@@ -1,12 +1,12 @@
 #pragma once
-/// A minimal JSON emitter for experiment summaries and `cariesim tree --json`. None of the chosen
-/// dependencies (DESIGN.md §7) writes JSON, and the summaries are small flat documents; this keeps
-/// escaping and number formatting (finite numbers only: NaN/inf become null) in one place.
+/// The one JSON writer of cariesim (experiment summaries, `cariesim tree --json`, reports, session
+/// parameters): it keeps escaping and number formatting (finite numbers only: NaN/inf become null) in
+/// one place.
 
 #include <string>
 #include <string_view>
 
-namespace cariesim {
+namespace cariesim::io {
 
 class JsonWriter {
  public:
@@ -40,4 +40,4 @@ class JsonWriter {
   bool after_key_ = false;
 };
 
-}  // namespace cariesim
+}  // namespace cariesim::io

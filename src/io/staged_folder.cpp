@@ -1,4 +1,4 @@
-#include "cariesim/common/staged_folder.hpp"
+#include "cariesim/io/staged_folder.hpp"
 
 #include <unistd.h>
 
@@ -6,7 +6,7 @@
 
 #include "cariesim/common/error.hpp"
 
-namespace cariesim {
+namespace cariesim::io {
 
 namespace fs = std::filesystem;
 
@@ -53,4 +53,4 @@ std::vector<fs::path> StagedFolder::publish() {
   return names;
 }
 
-}  // namespace cariesim
+}  // namespace cariesim::io

@@ -1,10 +1,10 @@
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace cariesim {
+namespace cariesim::io {
 namespace {
 
 TEST(JsonWriter, NestsEscapesAndNullsNonFinite) {
@@ -26,4 +26,4 @@ TEST(JsonWriter, NestsEscapesAndNullsNonFinite) {
 }
 
 }  // namespace
-}  // namespace cariesim
+}  // namespace cariesim::io

@@ -1,6 +1,7 @@
 #pragma once
-// Strict, located reading of yaml-cpp nodes for the scene parser: every accessor checks the type and
-// range of what it reads and throws cariesim::Error "file:line:column: field.path: message".
+// Strict, located reading of yaml-cpp nodes for every YAML document cariesim reads (scenes, studies,
+// courses, answers): every accessor checks the type and range of what it reads and throws
+// cariesim::Error "file:line:column: field.path: message".
 
 #include <yaml-cpp/yaml.h>
 
@@ -14,7 +15,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/common/math.hpp"
 
-namespace cariesim::scene_detail {
+namespace cariesim::io {
 
 /// Formats and throws errors located at a node.
 class Reader {
@@ -93,4 +94,4 @@ class Fields {
 /// "items[3]".
 std::string indexed(const std::string& path, std::size_t index);
 
-}  // namespace cariesim::scene_detail
+}  // namespace cariesim::io

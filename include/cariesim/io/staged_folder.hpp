@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace cariesim {
+namespace cariesim::io {
 
 class StagedFolder {
  public:
@@ -34,4 +34,4 @@ class StagedFolder {
   std::string what_;
 };
 
-}  // namespace cariesim
+}  // namespace cariesim::io

@@ -1,4 +1,4 @@
-#include "yaml_reader.hpp"
+#include "cariesim/io/yaml.hpp"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,7 @@
 #include <charconv>
 #include <cmath>
 
-namespace cariesim::scene_detail {
+namespace cariesim::io {
 namespace {
 
 // Edit distance between two short keys, for "did you mean" hints.
@@ -235,4 +235,4 @@ void Fields::number_in(std::string_view key, double& out, double lo, double hi, 
 
 std::string indexed(const std::string& path, std::size_t index) { return fmt::format("{}[{}]", path, index); }
 
-}  // namespace cariesim::scene_detail
+}  // namespace cariesim::io

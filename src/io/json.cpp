@@ -1,9 +1,9 @@
-#include "cariesim/experiment/json.hpp"
+#include "cariesim/io/json.hpp"
 
 #include <cmath>
 #include <cstdio>
 
-namespace cariesim {
+namespace cariesim::io {
 
 void JsonWriter::separate() {
   if (after_key_) {
@@ -108,4 +108,4 @@ JsonWriter& JsonWriter::null() {
   return *this;
 }
 
-}  // namespace cariesim
+}  // namespace cariesim::io
