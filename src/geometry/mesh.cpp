@@ -637,11 +637,12 @@ void validate_into(TriangleMesh& mesh, const std::string& what, MeshReport& repo
                              orientation.components));
     }
     if (nested.found) {
-      fail(what, fmt::format("shell {} ({} triangles) lies inside shell {} ({} triangles): a hollow solid "
-                             "(an inner cavity) or a part inside another; sphere trees fill every closed "
-                             "shell, so the cavity would become solid: remove the inner shell, or give "
-                             "each part its own object",
-                             nested.inner + 1, nested.inner_triangles, nested.outer + 1, nested.outer_triangles));
+      fail(what,
+           fmt::format("shell {} ({} triangles) lies inside shell {} ({} triangles): a hollow solid "
+                       "(an inner cavity) or a part inside another; sphere trees fill every closed "
+                       "shell, so the cavity would become solid: remove the inner shell, or give "
+                       "each part its own object",
+                       nested.inner + 1, nested.inner_triangles, nested.outer + 1, nested.outer_triangles));
     }
   }
 }

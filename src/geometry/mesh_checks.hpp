@@ -18,8 +18,8 @@ std::size_t count_self_intersections(const TriangleMesh& mesh);
 /// A closed shell found inside another (find_nested_shell).
 struct NestedShells {
   bool found = false;
-  bool too_costly = false;  ///< the shells' bounds overlap so much that checking them would take over
-                            ///< `max_work` triangle tests; nothing was decided
+  bool too_costly = false;        ///< the shells' bounds overlap so much that checking them would take over
+                                  ///< `max_work` triangle tests; nothing was decided
   uint32_t inner = 0, outer = 0;  ///< component numbers
   std::size_t inner_triangles = 0, outer_triangles = 0;
 };

@@ -209,7 +209,8 @@ NestedShells find_nested_shell(const TriangleMesh& mesh, const std::vector<uint3
   for (std::size_t inner = 0; inner < components; ++inner) {
     const std::vector<uint32_t>& own = triangles[inner];
     if (own.empty()) continue;
-    const std::array<uint32_t, 3> probes = {mesh.triangles[own.front()][0], mesh.triangles[own[own.size() / 2]][1],
+    const std::array<uint32_t, 3> probes = {mesh.triangles[own.front()][0],
+                                            mesh.triangles[own[own.size() / 2]][1],
                                             mesh.triangles[own.back()][2]};
     for (std::size_t outer = 0; outer < components; ++outer) {
       if (outer == inner || triangles[outer].empty() || !bounds[outer].contains(bounds[inner])) continue;

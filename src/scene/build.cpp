@@ -464,7 +464,9 @@ void hash_fields(BuildKey& key, const ShapeDesc& shape) {
   // Every field (a new one fails to compile here until it is hashed); the mesh file by its bytes
   // (none for a procedural shape) and the options it is loaded with, not by its name.
   const auto& [kind, file, scale, size, molar, premolar, gingiva, tongue] = shape;
-  key.add_value(kind).add(file.empty() ? std::string() : file_bytes(file)).add_value(mesh_load_options(shape));
+  key.add_value(kind)
+      .add(file.empty() ? std::string() : file_bytes(file))
+      .add_value(mesh_load_options(shape));
   key.add_value(scale).add_value(size).add_value(molar).add_value(premolar).add_value(gingiva);
   key.add_value(tongue);
 }

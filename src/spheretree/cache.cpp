@@ -117,7 +117,8 @@ class Reader {
 // The entry of a key: named by the key and the cache version together, so that builds of another
 // version sharing the folder keep their own entries instead of replacing each other's.
 std::filesystem::path entry_path(const std::filesystem::path& dir, uint64_t key) {
-  const uint64_t name = BuildKey().add(static_cast<int64_t>(kTreeCacheVersion)).add(static_cast<int64_t>(key)).value();
+  const uint64_t name =
+      BuildKey().add(static_cast<int64_t>(kTreeCacheVersion)).add(static_cast<int64_t>(key)).value();
   return dir / fmt::format("{:016x}.tree", name);
 }
 
@@ -137,7 +138,8 @@ bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
   uint8_t mode = 0;
   int32_t levels = 0;
   if (!in.get_bytes(magic, sizeof(magic)) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) return false;
-  if (!in.get(version) || version != kTreeCacheVersion || !in.get(stored_key) || stored_key != key) return false;
+  if (!in.get(version) || version != kTreeCacheVersion || !in.get(stored_key) || stored_key != key)
+    return false;
   if (!in.get(mode) || mode > static_cast<uint8_t>(TreeMode::Octree) || !in.get(levels)) return false;
   SphereTree& tree = part.tree;
   tree.mode = static_cast<TreeMode>(mode);

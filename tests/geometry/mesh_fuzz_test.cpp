@@ -125,7 +125,7 @@ TEST(LoadMeshFuzz, MutatedFilesLoadCleanlyOrThrowError) {
       if (i % 3 == 0) bytes = mutate(bytes, rng);
       const auto file = test::write_file(dir / seed.name, bytes);
       (load_cleanly_or_refuse(file, std::string(seed.name) + " iteration " + std::to_string(i)) ? loaded
-                                                                                                 : rejected)++;
+                                                                                                : rejected)++;
       if (::testing::Test::HasFailure()) return;
     }
   }
@@ -141,8 +141,8 @@ TEST(LoadMeshFuzz, MutatedCrossingAndHollowMeshesLoadCleanlyOrThrowError) {
   const auto dir = test::temp_dir();
   const TriangleMesh crossing =
       test::merged(test::uv_sphere(Vec3(0, 0, 0), 2.0, 12, 6), test::uv_sphere(Vec3(3, 0, 0), 2.0, 12, 6));
-  const TriangleMesh hollow =
-      test::merged(test::uv_sphere(Vec3(0, 0, 0), 5.0, 12, 6), test::uv_sphere(Vec3(0, 0, 0), 3.0, 8, 4, true));
+  const TriangleMesh hollow = test::merged(test::uv_sphere(Vec3(0, 0, 0), 5.0, 12, 6),
+                                           test::uv_sphere(Vec3(0, 0, 0), 3.0, 8, 4, true));
   save_stl(hollow, dir / "hollow.stl");
   save_stl(crossing, dir / "crossing.stl");
   const std::vector<Seed> seeds = {{"crossing.ply", test::binary_ply(crossing)},

@@ -455,10 +455,12 @@ TEST(LoadMesh, SpheresCrossingExactlyAlongEdgesAreRefused) {
   // where their surfaces cross lies exactly on an edge of each. Counted as crossing and refused (they
   // were accepted, and the tree poked 2.73 mm out of the union).
   const auto dir = temp_dir();
-  const TriangleMesh pair = test::merged(test::uv_sphere(Vec3(0, 0, 0), 2.0), test::uv_sphere(Vec3(3, 0, 0), 2.0));
+  const TriangleMesh pair =
+      test::merged(test::uv_sphere(Vec3(0, 0, 0), 2.0), test::uv_sphere(Vec3(3, 0, 0), 2.0));
   save_stl(pair, dir / "spheres.stl");
-  for (const auto& [name, bytes] : {std::pair<std::string, std::string>{"spheres.stl", test::read_file(dir / "spheres.stl")},
-                                    {"spheres.ply", test::binary_ply(pair)}}) {
+  for (const auto& [name, bytes] :
+       {std::pair<std::string, std::string>{"spheres.stl", test::read_file(dir / "spheres.stl")},
+        {"spheres.ply", test::binary_ply(pair)}}) {
     const auto file = write_file(dir / name, bytes);
     EXPECT_THAT(load_error(file), AllOf(HasSubstr(file.string()), HasSubstr("the surface intersects itself")))
         << name;

@@ -61,12 +61,15 @@ inline TriangleMesh uv_sphere(const Vec3& center, double radius, int segments = 
       // x from |cos| with its sign, so that x is exactly symmetric about the centre.
       const double c = std::cos(phi);
       const double x = std::copysign(std::round(std::abs(radius * std::sin(theta) * c) * 4096.0) / 4096.0, c);
-      m.vertices.emplace_back(snap(center.x() + x), snap(center.y() + radius * std::sin(theta) * std::sin(phi)),
+      m.vertices.emplace_back(snap(center.x() + x),
+                              snap(center.y() + radius * std::sin(theta) * std::sin(phi)),
                               snap(center.z() + radius * std::cos(theta)));
     }
   }
   m.vertices.emplace_back(snap(center.x()), snap(center.y()), snap(center.z() - radius));
-  const auto ring = [&](int i, int j) { return static_cast<uint32_t>(1 + (i - 1) * segments + (j % segments)); };
+  const auto ring = [&](int i, int j) {
+    return static_cast<uint32_t>(1 + (i - 1) * segments + (j % segments));
+  };
   const auto south = static_cast<uint32_t>(m.vertices.size() - 1);
   for (int j = 0; j < segments; ++j) {
     m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});

@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 // fields (kKeyFields), so that a field added to any of them is visited too.
 template <typename T, typename F>
 void for_each_leaf(T& value, F& visit) {
-  if constexpr (kKeyFields<T> > 0) {
+  if constexpr (kKeyFields < T >> 0) {
     for_each_field<kKeyFields<T>>(value, [&](auto& field) { for_each_leaf(field, visit); });
   } else {
     visit(value);
@@ -128,9 +128,9 @@ TEST_F(CacheKeyTest, EveryFieldOfEveryShapeLesionAndTreeParameterMissesTheCache)
   const TreeParams params;
 
   std::size_t misses = 0;
-  for (const ShapeDesc::Kind kind : {ShapeDesc::Kind::Mesh, ShapeDesc::Kind::Cuboid, ShapeDesc::Kind::Molar,
-                                     ShapeDesc::Kind::Premolar, ShapeDesc::Kind::Gingiva,
-                                     ShapeDesc::Kind::Tongue}) {
+  for (const ShapeDesc::Kind kind :
+       {ShapeDesc::Kind::Mesh, ShapeDesc::Kind::Cuboid, ShapeDesc::Kind::Molar, ShapeDesc::Kind::Premolar,
+        ShapeDesc::Kind::Gingiva, ShapeDesc::Kind::Tongue}) {
     object.shape.kind = kind;
     const Perturb perturb{box};
     // A cache per kind: another kind's entries are other parts (changing the kind may lead to them).
@@ -140,8 +140,8 @@ TEST_F(CacheKeyTest, EveryFieldOfEveryShapeLesionAndTreeParameterMissesTheCache)
       cache.store(base, stored);
       ASSERT_TRUE(cache.load(base).has_value());
       EXPECT_EQ(part_cache_key(object, params, lesions, part), base) << "the key is not deterministic";
-      const auto expect_miss = [&](const ObjectDesc& o, const TreeParams& p, const std::vector<LesionShape>& l,
-                                   const std::string& what) {
+      const auto expect_miss = [&](const ObjectDesc& o, const TreeParams& p,
+                                   const std::vector<LesionShape>& l, const std::string& what) {
         EXPECT_FALSE(cache.load(part_cache_key(o, p, l, part)).has_value())
             << kind_name(kind) << ", part " << part << ": changing " << what << " hits the cache";
         ++misses;
@@ -231,7 +231,8 @@ TEST_F(CacheKeyTest, MirroredTeethThroughOneCacheAreBuiltMirrored) {
     // And the two sides differ, so an unmirrored tree from the cache would have been caught.
     const SphereTree& r = right.objects[0].tree;
     bool differ = r.nodes.size() != a.nodes.size();
-    for (std::size_t i = 0; !differ && i < a.nodes.size(); ++i) differ = r.nodes[i].center != a.nodes[i].center;
+    for (std::size_t i = 0; !differ && i < a.nodes.size(); ++i)
+      differ = r.nodes[i].center != a.nodes[i].center;
     EXPECT_TRUE(differ) << type;
   }
 }

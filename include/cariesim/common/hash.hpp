@@ -79,14 +79,27 @@ concept KeyMatrix = requires(const T& v) {
   v.coeff(0);
 };
 template <typename T>
-concept KeyQuaternion = requires(const T& v) { v.coeffs(); v.w(); };
+concept KeyQuaternion = requires(const T& v) {
+  v.coeffs();
+  v.w();
+};
 template <typename T>
-concept KeyBox = requires(const T& v) { v.min(); v.max(); v.isEmpty(); };
+concept KeyBox = requires(const T& v) {
+  v.min();
+  v.max();
+  v.isEmpty();
+};
 template <typename T>
-concept KeyRange = requires(const T& v) { v.begin(); v.end(); v.size(); };
+concept KeyRange = requires(const T& v) {
+  v.begin();
+  v.end();
+  v.size();
+};
 // A struct with its own key function (found by argument-dependent lookup).
 template <typename T>
-concept KeyHashable = requires(BuildKey& key, const T& v) { hash_fields(key, v); };
+concept KeyHashable = requires(BuildKey& key, const T& v) {
+  hash_fields(key, v);
+};
 }  // namespace detail
 
 /// Incremental 64-bit hash (FNV-1a) of everything that determines a build.
@@ -124,7 +137,10 @@ class BuildKey {
       for (std::ptrdiff_t i = 0; i < value.size(); ++i) add(static_cast<double>(value.coeff(i)));
     } else if constexpr (detail::KeyBox<T>) {
       add_value(value.min()).add_value(value.max());
-    } else if constexpr (requires { value.has_value(); *value; }) {
+    } else if constexpr (requires {
+                           value.has_value();
+                           *value;
+                         }) {
       add(static_cast<int64_t>(value.has_value()));
       if (value) add_value(*value);
     } else if constexpr (detail::KeyRange<T>) {
