@@ -57,7 +57,7 @@ void print_status(const ServoSnapshot& s) {
 
 // The loop's timing report, the limits in force, the device's counters, the recorder's summary.
 void print_report(Session& session) {
-  const ServoLoop& loop = session.loop();
+  ServoLoop& loop = session.loop();
   const TimingReport r = loop.timing();
   std::fprintf(stderr,
                "servo: %llu cycles at %.1f Hz (target %.0f Hz), %llu overruns, %llu steps cut short by the "
@@ -71,9 +71,13 @@ void print_report(Session& session) {
                loop.spin_us(), r.step_p50, r.step_p99, r.step_p999, r.step_max, r.jitter_p50, r.jitter_p99,
                r.jitter_p999, r.jitter_max);
   const Params& params = session.params();
-  std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm%s\n",
+  std::fprintf(stderr, "  limits: %.4g N, %.4g N/mm, %.4g N.mm; coupling %.4g N/mm\n",
                params.limits.max_force, params.limits.max_stiffness, params.limits.max_torque,
-               params.gains.k_trans, loop.refused_limits() > 0 ? " (device limits refused)" : "");
+               params.gains.k_trans);
+  ParamProblem refusal;
+  if (loop.latest_refusal(refusal))
+    std::fprintf(stderr, "  device limits refused %llu times, last: %s %s\n",
+                 static_cast<unsigned long long>(loop.refused_limits()), refusal.field, refusal.rule);
   const Device& device = session.device();
   const auto counters = device.counters();
   if (!counters.empty()) {

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <limits>
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/cpu.hpp"
@@ -214,8 +215,37 @@ BridgeCounters BridgeInbox::counters() const {
   return c;
 }
 
+ReplyBudget::ReplyBudget(double window)
+    : window_ns_(static_cast<int64_t>(window * 1e9)),
+      last_received_ns_(std::numeric_limits<int64_t>::min()) {}
+
+void ReplyBudget::reset() {
+  received_.store(0, std::memory_order_relaxed);
+  last_received_ns_.store(std::numeric_limits<int64_t>::min(), std::memory_order_relaxed);
+  answered_ = 0;
+}
+
+void ReplyBudget::received(int64_t now_ns) {
+  // The time first, then the count (release): a sender that sees the count sees the time.
+  last_received_ns_.store(now_ns, std::memory_order_relaxed);
+  received_.fetch_add(1, std::memory_order_release);
+}
+
+bool ReplyBudget::take(int64_t now_ns) {
+  // A packet not yet answered, received within the window.
+  const uint64_t received = received_.load(std::memory_order_acquire);
+  if (received == answered_) return false;
+  const int64_t last = last_received_ns_.load(std::memory_order_relaxed);
+  if (now_ns - last > window_ns_) return false;
+  answered_ = received;
+  return true;
+}
+
 UdpDevice::UdpDevice(const UdpOptions& options)
-    : options_(options), inbox_(options.timeout, options.session_timeout), announced_(options.limits) {
+    : options_(options),
+      inbox_(options.timeout, options.session_timeout),
+      budget_(options.session_timeout),
+      announced_(options.limits) {
   latest_.pose = options.home;
 }
 
@@ -273,8 +303,16 @@ void UdpDevice::start() {
   inbound_.read(old_pose);
   bridge::WrenchPacket old_wrench;
   outbound_.read(old_wrench);
-  DeviceLimits old_limits;
+  LimitsAnnouncement old_limits;
   announced_limits_.read(old_limits);
+  hello_client_ = 0;
+  session_seen_ = inbox_.session_count();
+  budget_.reset();
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    announced_ = options_.limits;
+    remote_name_.clear();
+  }
   latest_.pose = options_.home;
   running_.store(true);
   // Logged before the threads start, so spdlog's default logger (created lazily by the first call)
@@ -331,7 +369,16 @@ void UdpDevice::receive_loop() {
     const uint64_t source = address_key(from);
     const BridgeVerdict v =
         inbox_.accept(buffer.data(), static_cast<std::size_t>(n), source, static_cast<double>(now_ns) * 1e-9);
+    if (v != BridgeVerdict::AcceptedPose && v != BridgeVerdict::AcceptedHello) continue;
+    // Each accepted packet allows one wrench back (ReplyBudget).
+    budget_.received(now_ns);
+    const uint64_t session = inbox_.session_count();
+    const bool new_session = session != session_seen_;
+    session_seen_ = session;
     if (v == BridgeVerdict::AcceptedPose) {
+      // A session begun by a pose from another client than the one whose hello is announced: that
+      // hello's limits are withdrawn (the scene's apply), before the servo thread sees the pose.
+      if (new_session && source != hello_client_) withdraw_limits();
       // Hand the pose to the servo thread and answer this client from now on.
       const bridge::PosePacket& p = inbox_.packet().pose;
       Inbound in;
@@ -345,7 +392,7 @@ void UdpDevice::receive_loop() {
       in.count = ++accepted_;
       inbound_.write(in);
       client_address_.store(source);
-    } else if (v == BridgeVerdict::AcceptedHello) {
+    } else {
       // The device's limits go to the servo thread as announced; it decides what they change.
       const bridge::HelloPacket& h = inbox_.packet().hello;
       DeviceLimits limits;
@@ -354,7 +401,8 @@ void UdpDevice::receive_loop() {
       limits.max_torque = h.max_torque;
       limits.position_resolution = 0.0;  // not in a hello: the simulator's holds
       limits.workspace = Eigen::AlignedBox3d(h.workspace_min, h.workspace_max);
-      announced_limits_.write(limits);
+      announced_limits_.write(LimitsAnnouncement{false, limits});
+      hello_client_ = source;
       {
         std::lock_guard<std::mutex> lock(info_mutex_);
         announced_ = limits;
@@ -366,6 +414,19 @@ void UdpDevice::receive_loop() {
                     h.max_stiffness, h.max_torque);
     }
   }
+}
+
+void UdpDevice::withdraw_limits() {
+  announced_limits_.write(LimitsAnnouncement{true, options_.limits});
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    const bool had = hello_client_ != 0;
+    announced_ = options_.limits;
+    remote_name_.clear();
+    if (had)
+      spdlog::debug("udp device: a new client without a hello: the earlier hello's limits are withdrawn");
+  }
+  hello_client_ = 0;
 }
 
 void UdpDevice::send_loop(uint32_t seen) {
@@ -381,6 +442,11 @@ void UdpDevice::send_loop(uint32_t seen) {
     if (!outbound_.read(w)) continue;
     const uint64_t client = client_address_.load();
     if (client == 0) continue;
+    // Only while the client keeps sending, and never more wrenches than it sent packets.
+    if (!budget_.take(monotonic_ns())) {
+      withheld_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
     const sockaddr_in to = address_from_key(client);
     const std::size_t size = bridge::encode_wrench(w, buffer.data(), buffer.size());
     if (::sendto(socket_, buffer.data(), size, 0, reinterpret_cast<const sockaddr*>(&to), sizeof(to)) ==
@@ -409,7 +475,7 @@ DeviceState UdpDevice::read(double now) {
 
 void UdpDevice::set_status(const DeviceStatus& status) { status_ = status; }
 
-bool UdpDevice::poll_limits(DeviceLimits& out) { return announced_limits_.read(out); }
+bool UdpDevice::poll_limits(LimitsAnnouncement& out) { return announced_limits_.read(out); }
 
 void UdpDevice::write(const Vec3& force, const Vec3& torque) {
   // The answer to the pose used this cycle: the wrench as given (the servo loop bounded it), with
@@ -440,6 +506,7 @@ BridgeCounters UdpDevice::bridge_counters() const {
   BridgeCounters c = inbox_.counters();
   c.sent = sent_.load(std::memory_order_relaxed);
   c.send_errors = send_errors_.load(std::memory_order_relaxed);
+  c.withheld = withheld_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -453,6 +520,7 @@ std::vector<DeviceCounter> UdpDevice::counters() const {
   out.push_back({"resyncs", c.resyncs});
   out.push_back({"sent", c.sent});
   out.push_back({"send_errors", c.send_errors});
+  out.push_back({"withheld", c.withheld});
   return out;
 }
 

@@ -29,6 +29,9 @@ constexpr double kZeroAreaRelative = 1e-10;
 constexpr double kMaxHolePerimeterFraction = 0.25;
 // A closed mesh must enclose more than this fraction of its bounding-box diagonal cubed.
 constexpr double kMinVolumeFraction = 1e-9;
+// Triangle tests the nested-shell check may spend (a second or two): a file of shells packed within
+// one another's bounds beyond that is refused rather than checked for minutes.
+constexpr std::size_t kMaxNestingWork = 20'000'000;
 
 [[noreturn]] void fail(const std::string& what, const std::string& problem) {
   throw Error(fmt::format("{}: {}", what, problem));
@@ -619,6 +622,27 @@ void validate_into(TriangleMesh& mesh, const std::string& what, MeshReport& repo
     if (report.self_intersections > 0) {
       report.warnings.push_back(
           fmt::format("{} pairs of triangles intersect each other", report.self_intersections));
+    }
+  }
+
+  // A closed shell inside another: a hollow solid (a surface around an inner cavity) or a part
+  // within a part. Level sets and sphere trees fill every closed shell, so the cavity would silently
+  // become solid: refused, naming the shells.
+  if (options.require_closed && orientation.components > 1 && report.self_intersections == 0) {
+    const NestedShells nested =
+        find_nested_shell(mesh, orientation.component, orientation.components, kMaxNestingWork);
+    if (nested.too_costly) {
+      fail(what, fmt::format("{} separate shells lie within one another's bounds, too many to check that "
+                             "none is inside another; give each part its own file",
+                             orientation.components));
+    }
+    if (nested.found) {
+      fail(what,
+           fmt::format("shell {} ({} triangles) lies inside shell {} ({} triangles): a hollow solid "
+                       "(an inner cavity) or a part inside another; sphere trees fill every closed "
+                       "shell, so the cavity would become solid: remove the inner shell, or give "
+                       "each part its own object",
+                       nested.inner + 1, nested.inner_triangles, nested.outer + 1, nested.outer_triangles));
     }
   }
 }

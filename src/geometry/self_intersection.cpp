@@ -1,6 +1,8 @@
+// Mesh checks of validate_mesh: triangles crossing each other, and closed shells inside others.
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 #include <vector>
 
@@ -12,23 +14,49 @@ namespace {
 
 using Corners = std::array<Vec3, 3>;
 
-// Six times the signed volume of tetrahedron (a, b, c, d).
-double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  return (b - a).cross(c - a).dot(d - a);
+// Exact orientation tests: the vertices on an integer grid of 2^-k mm (k as fine as keeps every
+// coordinate below 2^40 units from the mesh's lowest corner: 2^-30 mm for a 1 m mesh, finer for a
+// tooth, far below a float's resolution there), and determinants in 128-bit integers (below 2^123, so
+// exact). A crossing that runs exactly along edges is then told from a sliver that only passes near
+// one, which a tolerance cannot do.
+__extension__ typedef __int128 Wide;
+using Point = std::array<int64_t, 3>;
+using Triangle3 = std::array<Point, 3>;
+
+// Sign of det[b - a, c - a, d - a]: six times the signed volume of tetrahedron (a, b, c, d).
+int orient(const Point& a, const Point& b, const Point& c, const Point& d) {
+  const Wide bx = b[0] - a[0], by = b[1] - a[1], bz = b[2] - a[2];
+  const Wide cx = c[0] - a[0], cy = c[1] - a[1], cz = c[2] - a[2];
+  const Wide dx = d[0] - a[0], dy = d[1] - a[1], dz = d[2] - a[2];
+  const Wide det = bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
+  return (det > 0) - (det < 0);
 }
 
-// Sign of x with |x| <= tol counted as zero.
-int sign(double x, double tol) { return x > tol ? 1 : (x < -tol ? -1 : 0); }
-
-// True when segment pq passes through the interior of triangle t; touching does not count.
-bool segment_crosses(const Vec3& p, const Vec3& q, const Corners& t, double tol) {
-  const int sp = sign(orient(t[0], t[1], t[2], p), tol);
-  const int sq = sign(orient(t[0], t[1], t[2], q), tol);
+// True when segment pq passes from one side of triangle t's plane to the other through t, its edges
+// or corners included: two sheets whose crossing runs exactly along edges (a mesh and its mirror
+// image, as two equal spheres side by side) cross there too. An end on the plane does not count.
+bool segment_crosses(const Point& p, const Point& q, const Triangle3& t) {
+  const int sp = orient(t[0], t[1], t[2], p);
+  const int sq = orient(t[0], t[1], t[2], q);
   if (sp == 0 || sq == 0 || sp == sq) return false;
-  const int s1 = sign(orient(p, q, t[0], t[1]), tol);
-  const int s2 = sign(orient(p, q, t[1], t[2]), tol);
-  const int s3 = sign(orient(p, q, t[2], t[0]), tol);
-  return s1 != 0 && s1 == s2 && s2 == s3;
+  const int s1 = orient(p, q, t[0], t[1]);
+  const int s2 = orient(p, q, t[1], t[2]);
+  const int s3 = orient(p, q, t[2], t[0]);
+  const bool none_negative = s1 >= 0 && s2 >= 0 && s3 >= 0;
+  const bool none_positive = s1 <= 0 && s2 <= 0 && s3 <= 0;
+  return (none_negative || none_positive) && (s1 != 0 || s2 != 0 || s3 != 0);
+}
+
+// The mesh's vertices on the exact grid.
+std::vector<Point> grid_points(const TriangleMesh& mesh) {
+  const Eigen::AlignedBox3d box = mesh.bounds();
+  const double extent = std::max(box.sizes().maxCoeff(), 1e-30);
+  const double unit = std::ldexp(1.0, 40 - static_cast<int>(std::ceil(std::log2(extent))));
+  std::vector<Point> out(mesh.vertices.size());
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    for (int k = 0; k < 3; ++k)
+      out[v][k] = static_cast<int64_t>(std::llround((mesh.vertices[v][k] - box.min()[k]) * unit));
+  return out;
 }
 
 Corners corners(const TriangleMesh& mesh, const std::array<uint32_t, 3>& t) {
@@ -41,25 +69,24 @@ double longest_edge(const Corners& t) {
 }
 
 // Whether two triangles cross, given how many vertices they share (0 or 1).
-bool triangles_cross(const TriangleMesh& mesh, const std::array<uint32_t, 3>& ti,
+bool triangles_cross(const std::vector<Point>& points, const std::array<uint32_t, 3>& ti,
                      const std::array<uint32_t, 3>& tj) {
-  const Corners a = corners(mesh, ti);
-  const Corners b = corners(mesh, tj);
-  const double scale = std::max(longest_edge(a), longest_edge(b));
-  const double tol = 1e-9 * scale * scale * scale;
+  const Triangle3 a = {points[ti[0]], points[ti[1]], points[ti[2]]};
+  const Triangle3 b = {points[tj[0]], points[tj[1]], points[tj[2]]};
 
-  // Shared vertex: the planes meet in a line through it, so any crossing ends on an opposite edge.
+  // Shared vertex: the planes meet in a line through it, so any crossing ends on an opposite edge
+  // (which cannot pass through the shared vertex itself: the triangle would be degenerate).
   for (int p = 0; p < 3; ++p) {
     for (int q = 0; q < 3; ++q) {
       if (ti[p] != tj[q]) continue;
-      return segment_crosses(a[(p + 1) % 3], a[(p + 2) % 3], b, tol) ||
-             segment_crosses(b[(q + 1) % 3], b[(q + 2) % 3], a, tol);
+      return segment_crosses(a[(p + 1) % 3], a[(p + 2) % 3], b) ||
+             segment_crosses(b[(q + 1) % 3], b[(q + 2) % 3], a);
     }
   }
   // Disjoint index sets: the intersection segment ends where an edge of one crosses the other.
   for (int k = 0; k < 3; ++k) {
-    if (segment_crosses(a[k], a[(k + 1) % 3], b, tol)) return true;
-    if (segment_crosses(b[k], b[(k + 1) % 3], a, tol)) return true;
+    if (segment_crosses(a[k], a[(k + 1) % 3], b)) return true;
+    if (segment_crosses(b[k], b[(k + 1) % 3], a)) return true;
   }
   return false;
 }
@@ -68,6 +95,19 @@ int shared_vertices(const std::array<uint32_t, 3>& a, const std::array<uint32_t,
   int n = 0;
   for (const uint32_t u : a) n += static_cast<int>(u == b[0] || u == b[1] || u == b[2]);
   return n;
+}
+
+// Solid angle (sr) of triangle abc seen from p (Van Oosterom and Strackee, 1983), signed by winding.
+double solid_angle(const Vec3& p, const Corners& t) {
+  const Vec3 a = t[0] - p;
+  const Vec3 b = t[1] - p;
+  const Vec3 c = t[2] - p;
+  const double la = a.norm();
+  const double lb = b.norm();
+  const double lc = c.norm();
+  const double numerator = a.dot(b.cross(c));
+  const double denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+  return 2.0 * std::atan2(numerator, denominator);
 }
 
 }  // namespace
@@ -126,6 +166,7 @@ std::size_t count_self_intersections(const TriangleMesh& mesh) {
   }
 
   // Each pair once (j > i, stamped), bounds first, then the exact test.
+  const std::vector<Point> points = grid_points(mesh);
   std::vector<uint32_t> stamp(n, ~uint32_t{0});
   std::size_t crossings = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -140,11 +181,62 @@ std::size_t count_self_intersections(const TriangleMesh& mesh) {
             stamp[j] = static_cast<uint32_t>(i);
             if (!boxes[i].intersects(boxes[j])) continue;
             if (shared_vertices(mesh.triangles[i], mesh.triangles[j]) >= 2) continue;
-            if (triangles_cross(mesh, mesh.triangles[i], mesh.triangles[j])) ++crossings;
+            if (triangles_cross(points, mesh.triangles[i], mesh.triangles[j])) ++crossings;
           }
         }
   }
   return crossings;
+}
+
+NestedShells find_nested_shell(const TriangleMesh& mesh, const std::vector<uint32_t>& component,
+                               std::size_t components, std::size_t max_work) {
+  NestedShells out;
+  if (components < 2) return out;
+
+  // Each shell's bounds, triangles and a few of its vertices to test (first, middle, last).
+  std::vector<Eigen::AlignedBox3d> bounds(components);
+  std::vector<std::vector<uint32_t>> triangles(components);
+  for (auto& b : bounds) b.setEmpty();
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const uint32_t c = component[t];
+    triangles[c].push_back(static_cast<uint32_t>(t));
+    for (const uint32_t v : mesh.triangles[t]) bounds[c].extend(mesh.vertices[v].cast<double>());
+  }
+
+  // A shell lies inside another only within its bounds; there, the winding number of the other shell
+  // (closed, and crossing nothing: checked before) at the shell's vertices is +-1 inside, 0 outside.
+  std::size_t work = 0;
+  for (std::size_t inner = 0; inner < components; ++inner) {
+    const std::vector<uint32_t>& own = triangles[inner];
+    if (own.empty()) continue;
+    const std::array<uint32_t, 3> probes = {mesh.triangles[own.front()][0],
+                                            mesh.triangles[own[own.size() / 2]][1],
+                                            mesh.triangles[own.back()][2]};
+    for (std::size_t outer = 0; outer < components; ++outer) {
+      if (outer == inner || triangles[outer].empty() || !bounds[outer].contains(bounds[inner])) continue;
+      work += probes.size() * triangles[outer].size();
+      if (work > max_work) {
+        out.too_costly = true;
+        return out;
+      }
+      int inside = 0;
+      for (const uint32_t v : probes) {
+        const Vec3 p = mesh.vertices[v].cast<double>();
+        double total = 0.0;
+        for (const uint32_t t : triangles[outer]) total += solid_angle(p, corners(mesh, mesh.triangles[t]));
+        inside += std::abs(total) > 2.0 * std::numbers::pi;  // winding number above 1/2
+      }
+      if (inside >= 2) {
+        out.found = true;
+        out.inner = static_cast<uint32_t>(inner);
+        out.outer = static_cast<uint32_t>(outer);
+        out.inner_triangles = own.size();
+        out.outer_triangles = triangles[outer].size();
+        return out;
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace cariesim

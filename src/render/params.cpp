@@ -105,9 +105,12 @@ ParamProblem check_material(const Material& m) {
 }
 
 ParamProblem check_limits(const DeviceLimits& l) {
-  if (!in_range(l.max_force, 0.0, kMaxDeviceForce, true)) return {"max_force", "must be in (0, 1000] N"};
-  if (!stiffness_ok(l.max_stiffness)) return {"max_stiffness", "must be in (0, 1e6] N/mm"};
-  if (!in_range(l.max_torque, 0.0, kMaxDeviceTorque, true)) return {"max_torque", "must be in (0, 1e5] N·mm"};
+  if (!in_range(l.max_force, kMinDeviceForce, kMaxDeviceForce, false))
+    return {"max_force", "must be in [0.1, 1000] N"};
+  if (!in_range(l.max_stiffness, kMinDeviceStiffness, kMaxStiffness, false))
+    return {"max_stiffness", "must be in [0.01, 1e6] N/mm"};
+  if (!in_range(l.max_torque, kMinDeviceTorque, kMaxDeviceTorque, false))
+    return {"max_torque", "must be in [1, 1e5] N·mm"};
   if (!in_range(l.position_resolution, 0.0, 1000.0, false))
     return {"position_resolution", "must be in [0, 1000] mm"};
   if (!(l.workspace.min().allFinite() && l.workspace.max().allFinite()) || l.workspace.isEmpty())

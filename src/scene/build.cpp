@@ -26,8 +26,6 @@
 namespace cariesim {
 namespace {
 
-// Bump when anything in how a part is built changes (invalidates cached parts).
-constexpr std::string_view kPartFormat = "cariesim-scene-part-v1";
 // Level-set half band, in voxels (as spheretree's choose_resolution).
 constexpr double kBandVoxels = 5.0;
 // Height of the default tool home above the scene's highest point (mm).
@@ -57,11 +55,8 @@ std::string file_bytes(const std::filesystem::path& file) {
 TriangleMesh object_mesh(const ObjectDesc& o) {
   try {
     switch (o.shape.kind) {
-      case ShapeDesc::Kind::Mesh: {
-        MeshLoadOptions options;
-        options.scale = o.shape.scale;
-        return load_mesh(o.shape.file, nullptr, options);
-      }
+      case ShapeDesc::Kind::Mesh:
+        return load_mesh(o.shape.file, nullptr, mesh_load_options(o.shape));
       case ShapeDesc::Kind::Cuboid:
         return make_cuboid(o.shape.size);
       case ShapeDesc::Kind::Molar:
@@ -79,64 +74,9 @@ TriangleMesh object_mesh(const ObjectDesc& o) {
   throw Error(fmt::format("{}: unknown shape", object_context(o)));
 }
 
-// Adds what determines an object's geometry to a key: mesh bytes or generator parameters, and pose.
-void add_geometry(BuildKey& key, const ObjectDesc& o) {
-  const ShapeDesc& s = o.shape;
-  key.add(static_cast<int64_t>(s.kind));
-  switch (s.kind) {
-    case ShapeDesc::Kind::Mesh:
-      key.add(file_bytes(s.file)).add(s.scale);
-      break;
-    case ShapeDesc::Kind::Cuboid:
-      key.add(s.size.x()).add(s.size.y()).add(s.size.z());
-      break;
-    case ShapeDesc::Kind::Molar:
-      key.add(s.molar.mesiodistal)
-          .add(s.molar.buccolingual)
-          .add(s.molar.crown_height)
-          .add(s.molar.root_length);
-      key.add(int64_t{s.molar.cusps}).add(int64_t{s.molar.roots}).add(s.molar.resolution);
-      break;
-    case ShapeDesc::Kind::Premolar:
-      key.add(s.premolar.mesiodistal).add(s.premolar.buccolingual).add(s.premolar.crown_height);
-      key.add(s.premolar.root_length).add(s.premolar.resolution);
-      break;
-    case ShapeDesc::Kind::Gingiva:
-      for (const Vec3& p : s.gingiva.path) key.add(p.x()).add(p.y()).add(p.z());
-      key.add(s.gingiva.width).add(s.gingiva.height).add(s.gingiva.resolution);
-      break;
-    case ShapeDesc::Kind::Tongue:
-      key.add(s.tongue.length).add(s.tongue.width).add(s.tongue.height).add(s.tongue.resolution);
-      break;
-  }
-  key.add(o.pose.p.x()).add(o.pose.p.y()).add(o.pose.p.z());
-  key.add(o.pose.q.w()).add(o.pose.q.x()).add(o.pose.q.y()).add(o.pose.q.z());
-}
-
-// Adds a world-frame lesion shape to a key.
-void add_lesion(BuildKey& key, const LesionShape& s) {
-  key.add(static_cast<int64_t>(s.kind));
-  for (const Vec3* v : {&s.center, &s.normal, &s.tangent}) key.add(v->x()).add(v->y()).add(v->z());
-  key.add(s.size).add(s.width).add(s.depth);
-  for (const auto& p : s.polygon) key.add(p.x()).add(p.y());
-}
-
 // Display meshes use OpenVDB's adaptive meshing: 0.1 keeps the shape well within the trees' tolerance
 // to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
 constexpr double kDisplayAdaptivity = 0.1;
-// Bumped whenever the tree builders or the part building change what a cached part holds.
-constexpr int64_t kPartVersion = 8;
-
-// Adds tree parameters and the authored voxel (-1: chosen from the surface and parameters) to a key.
-void add_tree(BuildKey& key, const TreeParams& p, double voxel) {
-  key.add(static_cast<int64_t>(p.mode))
-      .add(int64_t{p.depth})
-      .add(p.tolerance)
-      .add(p.max_radius)
-      .add(p.min_radius);
-  key.add(int64_t{p.fill_interior}).add(static_cast<int64_t>(p.max_leaves)).add(int64_t{p.branching});
-  key.add(voxel).add(kDisplayAdaptivity).add(kPartVersion);
-}
 
 // Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
 std::optional<double> nearest_crossing(const TriangleMesh& mesh, const Vec3& c, const Vec3& d, double range) {
@@ -407,13 +347,8 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
     b.shapes.push_back(l.snap ? place_lesion(scene, l, b.world_mesh()) : lesion_shape_in_world(scene, l));
   }
 
-  // What determines this object's parts.
-  BuildKey object_key;
-  object_key.add(kPartFormat);
-  add_geometry(object_key, o);
-  add_tree(object_key, b.params, o.tree.voxel.value_or(-1.0));
-  for (const LesionShape& s : b.shapes) add_lesion(object_key, s);
-  scene_key.add(static_cast<int64_t>(object_key.value()));
+  // What determines this object's parts (the healthy or whole part's key stands for them all).
+  scene_key.add(static_cast<int64_t>(part_cache_key(o, b.params, b.shapes, -1)));
 
   const std::size_t part_total = scene.objects.size() + scene.lesions.size();
   const int healthy_index = static_cast<int>(model.objects.size());
@@ -428,20 +363,19 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
                             lesion < 0 ? std::string("healthy")
                                        : scene.lesions[static_cast<std::size_t>(lesion)].name);
     report(options.progress, name, 0.0);
-    BuildKey part_key(object_key);
-    part_key.add(int64_t{part});
+    const uint64_t key = part_cache_key(o, b.params, b.shapes, part);
 
     // Cached, else built (and cached).
     PartReport part_report;
     part_report.name = name;
     part_report.object = static_cast<int>(model.objects.size());
-    std::optional<CachedPart> cached = cache ? cache->load(part_key.value()) : std::nullopt;
+    std::optional<CachedPart> cached = cache ? cache->load(key) : std::nullopt;
     std::optional<LevelSet> part_ls;
     if (cached) {
       part_report.cache_hit = true;
     } else {
       cached = build_part(b, part, lesion, scene, name, options, part_ls);
-      if (cache) cache->store(part_key.value(), *cached);
+      if (cache) cache->store(key, *cached);
     }
 
     // Leaf materials, then a check that the tree is usable.
@@ -519,6 +453,33 @@ Pose tool_home(const SceneDesc& scene, const Model& model) {
 }
 
 }  // namespace
+
+MeshLoadOptions mesh_load_options(const ShapeDesc& shape) {
+  MeshLoadOptions options;
+  options.scale = shape.scale;
+  return options;
+}
+
+void hash_fields(BuildKey& key, const ShapeDesc& shape) {
+  // Every field (a new one fails to compile here until it is hashed); the mesh file by its bytes
+  // (none for a procedural shape) and the options it is loaded with, not by its name.
+  const auto& [kind, file, scale, size, molar, premolar, gingiva, tongue] = shape;
+  key.add_value(kind)
+      .add(file.empty() ? std::string() : file_bytes(file))
+      .add_value(mesh_load_options(shape));
+  key.add_value(scale).add_value(size).add_value(molar).add_value(premolar).add_value(gingiva);
+  key.add_value(tongue);
+}
+
+uint64_t part_cache_key(const ObjectDesc& object, const TreeParams& params,
+                        const std::vector<LesionShape>& lesions, int part) {
+  // Each struct hashes every field of its own (common/hash.hpp); then this file's own constants and
+  // the part. The cache adds its version (kTreeCacheVersion).
+  BuildKey key;
+  key.add_value(object.shape).add_value(object.pose).add_value(TreeDesc{params, object.tree.voxel});
+  key.add_value(lesions).add(kDisplayAdaptivity).add(kBandVoxels).add(int64_t{part});
+  return key.value();
+}
 
 Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildReport* report_out) {
   const auto start = Clock::now();

@@ -280,23 +280,42 @@ bool ServoLoop::update_params() {
     if (!applied) bump(rejected_changes_);
   }
 
-  // Limits the device announced: checked (a device that renders no torque announces 0), then the
-  // scene's within them, the coupling stiffness no higher than the new maximum (eq. 6's k_p);
-  // the materials keep what the user changed. Refused limits leave the Params as they were.
-  DeviceLimits announced;
-  if (device_.poll_limits(announced)) {
-    DeviceLimits checked = announced;
+  // What the device said about its limits. Announced limits are checked (a device that renders no
+  // torque announces 0); accepted, the scene's within them are in force, the coupling stiffness no
+  // higher than the new maximum (eq. 6's k_p), the materials keeping what the user changed. Refused
+  // (with the reason kept for the report) or withdrawn (a new client without a hello), the scene's
+  // limits are in force again: the acknowledgement (wrench flag bit 15) is set exactly while an
+  // announcement's limits apply.
+  LimitsAnnouncement news;
+  if (device_.poll_limits(news)) {
+    DeviceLimits checked = news.limits;
     if (checked.max_torque == 0.0) checked.max_torque = kMaxDeviceTorque;
-    const DeviceLimits limits = tighter(model_.defaults.limits, announced);
-    if (check_limits(checked) || limits.workspace.isEmpty()) {
-      bump(refused_limits_);
-      limits_announced_ = false;
-    } else {
-      params_.params.limits = limits;
-      params_.params.gains.k_trans = std::min(model_.defaults.gains.k_trans, limits.max_stiffness);
-      limits_announced_ = true;
+    const DeviceLimits limits = tighter(model_.defaults.limits, news.limits);
+    ParamProblem problem;
+    if (!news.withdrawn) {
+      problem = check_limits(checked);
+      if (!problem && limits.workspace.isEmpty())
+        problem = {"workspace", "must overlap the scene's workspace"};
+      if (problem) {
+        bump(refused_limits_);
+        refusals_.write(problem);
+      }
+    }
+    const bool announced = !news.withdrawn && !problem;
+    const DeviceLimits& next = announced ? limits : model_.defaults.limits;
+    const double k_trans = std::min(model_.defaults.gains.k_trans, next.max_stiffness);
+    DeviceLimits& now = params_.params.limits;
+    const bool differ =
+        now.max_force != next.max_force || now.max_stiffness != next.max_stiffness ||
+        now.max_torque != next.max_torque || now.position_resolution != next.position_resolution ||
+        now.workspace.min() != next.workspace.min() || now.workspace.max() != next.workspace.max() ||
+        params_.params.gains.k_trans != k_trans;
+    if (differ) {
+      now = next;
+      params_.params.gains.k_trans = k_trans;
       changed = true;
     }
+    limits_announced_ = announced;
   }
   return changed;
 }

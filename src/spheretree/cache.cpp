@@ -1,7 +1,7 @@
 // Tree cache files (DESIGN.md §3: "a cache hit loads in milliseconds").
 //
 // Layout, little-endian, no padding between fields:
-//   magic "CSTREE\r\n" (8 bytes), format version (u32), key (u64),
+//   magic "CSTREE\r\n" (8 bytes), version (u32, kTreeCacheVersion), key (u64),
 //   mode (u8), levels (i32),
 //   node count (u64) + nodes (32 bytes each: centre 3 x f32, radius f32, first u32, count u16,
 //   material u16, leaf u32, flags u32),
@@ -61,18 +61,6 @@ struct StoredTangents {
 static_assert(sizeof(StoredTangents) == 28, "stored tangents are 28 bytes");
 
 constexpr char kMagic[8] = {'C', 'S', 'T', 'R', 'E', 'E', '\r', '\n'};
-constexpr uint32_t kVersion = 3;
-constexpr uint64_t kFnvOffset = 1469598103934665603ull;
-constexpr uint64_t kFnvPrime = 1099511628211ull;
-
-uint64_t fnv1a(uint64_t hash, const void* data, std::size_t size) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < size; ++i) {
-    hash ^= bytes[i];
-    hash *= kFnvPrime;
-  }
-  return hash;
-}
 
 // Appends raw bytes of values to a buffer.
 class Writer {
@@ -126,8 +114,12 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
+// The entry of a key: named by the key and the cache version together, so that builds of another
+// version sharing the folder keep their own entries instead of replacing each other's.
 std::filesystem::path entry_path(const std::filesystem::path& dir, uint64_t key) {
-  return dir / fmt::format("{:016x}.tree", key);
+  const uint64_t name =
+      BuildKey().add(static_cast<int64_t>(kTreeCacheVersion)).add(static_cast<int64_t>(key)).value();
+  return dir / fmt::format("{:016x}.tree", name);
 }
 
 // Parses a whole file; returns false for anything unusable.
@@ -146,7 +138,8 @@ bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
   uint8_t mode = 0;
   int32_t levels = 0;
   if (!in.get_bytes(magic, sizeof(magic)) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) return false;
-  if (!in.get(version) || version != kVersion || !in.get(stored_key) || stored_key != key) return false;
+  if (!in.get(version) || version != kTreeCacheVersion || !in.get(stored_key) || stored_key != key)
+    return false;
   if (!in.get(mode) || mode > static_cast<uint8_t>(TreeMode::Octree) || !in.get(levels)) return false;
   SphereTree& tree = part.tree;
   tree.mode = static_cast<TreeMode>(mode);
@@ -193,30 +186,6 @@ bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
 
 }  // namespace
 
-BuildKey& BuildKey::add(std::string_view bytes) {
-  const uint64_t size = bytes.size();
-  hash_ = fnv1a(hash_, &size, sizeof(size));
-  hash_ = fnv1a(hash_, bytes.data(), bytes.size());
-  return *this;
-}
-
-BuildKey& BuildKey::add(const void* data, std::size_t size) {
-  hash_ = fnv1a(hash_, data, size);
-  return *this;
-}
-
-BuildKey& BuildKey::add(double value) {
-  // -0.0 and 0.0 describe the same build.
-  const double canonical = value == 0.0 ? 0.0 : value;
-  hash_ = fnv1a(hash_, &canonical, sizeof(canonical));
-  return *this;
-}
-
-BuildKey& BuildKey::add(int64_t value) {
-  hash_ = fnv1a(hash_, &value, sizeof(value));
-  return *this;
-}
-
 TreeCache::TreeCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
 
 std::filesystem::path TreeCache::default_dir() {
@@ -261,7 +230,7 @@ std::optional<CachedPart> TreeCache::load(uint64_t key) const {
 void TreeCache::store(uint64_t key, const CachedPart& part) const {
   Writer out;
   out.put_bytes(kMagic, sizeof(kMagic));
-  out.put(kVersion);
+  out.put(kTreeCacheVersion);
   out.put(key);
   out.put(static_cast<uint8_t>(part.tree.mode));
   out.put(static_cast<int32_t>(part.tree.levels));

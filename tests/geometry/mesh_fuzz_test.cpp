@@ -4,9 +4,15 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <iostream>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
@@ -20,23 +26,6 @@ namespace {
 int iterations() {
   const char* env = std::getenv("CARIESIM_FUZZ_ITERATIONS");
   return env != nullptr && std::atoi(env) > 0 ? std::atoi(env) : 300;
-}
-
-// A binary little-endian PLY of the mesh.
-std::string binary_ply(const TriangleMesh& m) {
-  std::string s =
-      "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(m.vertices.size()) +
-      "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
-      std::to_string(m.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (const auto& p : m.vertices) s.append(reinterpret_cast<const char*>(p.data()), 3 * sizeof(float));
-  for (const auto& t : m.triangles) {
-    s.push_back('\3');
-    for (const auto v : t) {
-      const auto i = static_cast<int32_t>(v);
-      s.append(reinterpret_cast<const char*>(&i), sizeof(i));
-    }
-  }
-  return s;
 }
 
 // One random change: overwrite bytes, truncate, insert, delete, duplicate a span, or swap a digit.
@@ -84,6 +73,37 @@ struct Seed {
   std::string bytes;
 };
 
+// Loads a mutated file: either a finite, closed mesh enclosing a volume, or a cariesim::Error naming
+// the file; anything else fails. Returns whether it loaded.
+bool load_cleanly_or_refuse(const std::filesystem::path& file, const std::string& context) {
+  const std::string name = file.filename().string();
+  try {
+    MeshReport report;
+    const TriangleMesh mesh = load_mesh(file, &report);
+    EXPECT_FALSE(mesh.triangles.empty()) << context;
+    EXPECT_TRUE(report.watertight()) << context;
+    EXPECT_EQ(report.self_intersections, 0u) << context;
+    for (const auto& v : mesh.vertices) EXPECT_TRUE(v.allFinite()) << context;
+    for (const auto& t : mesh.triangles) {
+      for (const auto v : t) EXPECT_LT(v, mesh.vertices.size()) << context;
+    }
+    EXPECT_TRUE(std::isfinite(mesh.volume())) << context;
+    EXPECT_GT(mesh.volume(), 0.0) << context;
+    return true;
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr(name)) << context;
+    return false;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << context << ": unexpected exception type: " << e.what();
+    return false;
+  }
+}
+
+std::mt19937 fuzz_rng() {
+  const char* seed_env = std::getenv("CARIESIM_FUZZ_SEED");
+  return std::mt19937(seed_env != nullptr ? static_cast<unsigned>(std::atol(seed_env)) : 20240611u);
+}
+
 TEST(LoadMeshFuzz, MutatedFilesLoadCleanlyOrThrowError) {
   const auto dir = test::temp_dir();
   const TriangleMesh cube = test::unit_cube();
@@ -92,9 +112,8 @@ TEST(LoadMeshFuzz, MutatedFilesLoadCleanlyOrThrowError) {
                                    {"fuzz_ascii.stl", test::ascii_stl(cube)},
                                    {"fuzz.obj", test::obj_text(cube)},
                                    {"fuzz_ascii.ply", test::ply_text(cube)},
-                                   {"fuzz_binary.ply", binary_ply(cube)}};
-  const char* seed_env = std::getenv("CARIESIM_FUZZ_SEED");
-  std::mt19937 rng(seed_env != nullptr ? static_cast<unsigned>(std::atol(seed_env)) : 20240611u);
+                                   {"fuzz_binary.ply", test::binary_ply(cube)}};
+  std::mt19937 rng = fuzz_rng();
   const int n = iterations();
   std::size_t loaded = 0;
   std::size_t rejected = 0;
@@ -105,29 +124,50 @@ TEST(LoadMeshFuzz, MutatedFilesLoadCleanlyOrThrowError) {
       std::string bytes = mutate(seed.bytes, rng);
       if (i % 3 == 0) bytes = mutate(bytes, rng);
       const auto file = test::write_file(dir / seed.name, bytes);
-      try {
-        MeshReport report;
-        const TriangleMesh mesh = load_mesh(file, &report);
-        ++loaded;
-        ASSERT_FALSE(mesh.triangles.empty()) << seed.name << " iteration " << i;
-        ASSERT_TRUE(report.watertight()) << seed.name << " iteration " << i;
-        for (const auto& v : mesh.vertices) ASSERT_TRUE(v.allFinite()) << seed.name << " iteration " << i;
-        for (const auto& t : mesh.triangles) {
-          for (const auto v : t) ASSERT_LT(v, mesh.vertices.size()) << seed.name << " iteration " << i;
-        }
-        ASSERT_TRUE(std::isfinite(mesh.volume()));
-        ASSERT_GT(mesh.volume(), 0.0) << seed.name << " iteration " << i;
-      } catch (const Error& e) {
-        ++rejected;
-        ASSERT_THAT(e.what(), ::testing::HasSubstr(seed.name)) << "iteration " << i;
-      } catch (const std::exception& e) {
-        FAIL() << seed.name << " iteration " << i << ": unexpected exception type: " << e.what();
-      }
+      (load_cleanly_or_refuse(file, std::string(seed.name) + " iteration " + std::to_string(i)) ? loaded
+                                                                                                : rejected)++;
+      if (::testing::Test::HasFailure()) return;
     }
   }
   std::cout << "mutated files: " << loaded << " loaded, " << rejected << " rejected\n";
   EXPECT_GT(rejected, 0u);
   EXPECT_GT(loaded, 0u);
+}
+
+TEST(LoadMeshFuzz, MutatedCrossingAndHollowMeshesLoadCleanlyOrThrowError) {
+  // Seeds that are refused as they are: two equal spheres crossing exactly along edges, and a hollow
+  // ball (a sphere around an inward-wound one). Mutated, they still load cleanly (never crossing,
+  // never nested) or are refused naming the file.
+  const auto dir = test::temp_dir();
+  const TriangleMesh crossing =
+      test::merged(test::uv_sphere(Vec3(0, 0, 0), 2.0, 12, 6), test::uv_sphere(Vec3(3, 0, 0), 2.0, 12, 6));
+  const TriangleMesh hollow = test::merged(test::uv_sphere(Vec3(0, 0, 0), 5.0, 12, 6),
+                                           test::uv_sphere(Vec3(0, 0, 0), 3.0, 8, 4, true));
+  save_stl(hollow, dir / "hollow.stl");
+  save_stl(crossing, dir / "crossing.stl");
+  const std::vector<Seed> seeds = {{"crossing.ply", test::binary_ply(crossing)},
+                                   {"crossing.stl", test::read_file(dir / "crossing.stl")},
+                                   {"hollow.stl", test::read_file(dir / "hollow.stl")}};
+  std::mt19937 rng = fuzz_rng();
+  const int n = std::max(1, iterations() / 3);
+  for (const auto& seed : seeds) {
+    const auto original = test::write_file(dir / seed.name, seed.bytes);
+    try {
+      (void)load_mesh(original);
+      ADD_FAILURE() << seed.name << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr(seed.name));
+      EXPECT_THAT(e.what(), ::testing::AnyOf(::testing::HasSubstr("the surface intersects itself"),
+                                             ::testing::HasSubstr("inner cavity")));
+    }
+    for (int i = 0; i < n; ++i) {
+      std::string bytes = mutate(seed.bytes, rng);
+      if (i % 3 == 0) bytes = mutate(bytes, rng);
+      (void)load_cleanly_or_refuse(test::write_file(dir / seed.name, bytes),
+                                   std::string(seed.name) + " iteration " + std::to_string(i));
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
 }
 
 }  // namespace

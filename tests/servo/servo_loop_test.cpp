@@ -49,14 +49,18 @@ class HoldDevice : public Device {
     last_torque = torque;
     writes.fetch_add(1, std::memory_order_relaxed);
   }
-  void set_status(const DeviceStatus& status) override { last_status = status; }
-  bool poll_limits(DeviceLimits& out) override { return announced.read(out); }
+  void set_status(const DeviceStatus& status) override {
+    last_status = status;
+    acknowledged.store(status.limits_acknowledged);
+  }
+  bool poll_limits(LimitsAnnouncement& out) override { return announced.read(out); }
 
   std::atomic<int> starts{0}, stops{0};
   std::atomic<uint64_t> reads{0}, writes{0};
   Vec3 last_force = Vec3::Constant(-1.0), last_torque = Vec3::Zero();
   DeviceStatus last_status;
-  TripleBuffer<DeviceLimits> announced;  // what the test "device" announces (test -> servo thread)
+  std::atomic<bool> acknowledged{false};       // the last status' limits_acknowledged (any thread)
+  TripleBuffer<LimitsAnnouncement> announced;  // what the test "device" announces (test -> servo thread)
 
  private:
   Pose pose_;
@@ -295,7 +299,7 @@ TEST(ServoLoop, AnnouncedLimitsTightenTheParamsAndKeepTunedMaterials) {
   announced.max_stiffness = 0.25;
   announced.max_torque = 0.0;
   announced.workspace = Eigen::AlignedBox3d(Vec3::Constant(-50), Vec3::Constant(50));
-  d.announced.write(announced);
+  d.announced.write(LimitsAnnouncement{false, announced});
   ASSERT_TRUE(wait_for([&] {
     loop.latest_params(published);
     return published.params.limits.max_force == 2.0;
@@ -318,17 +322,17 @@ TEST(ServoLoop, AnnouncedLimitsTightenTheParamsAndKeepTunedMaterials) {
     EXPECT_TRUE(s.torque.isZero());
   }
 
-  // Limits no device could have are refused and change nothing; higher ones than the scene's are
-  // held to the scene's.
+  // Limits no device could have are refused (the scene's apply again: TheAcknowledgement... below);
+  // higher ones than the scene's are held to the scene's.
   DeviceLimits absurd = announced;
   absurd.max_force = 1e9;
-  d.announced.write(absurd);
+  d.announced.write(LimitsAnnouncement{false, absurd});
   ASSERT_TRUE(wait_for([&] { return loop.refused_limits() == 1; }));
   DeviceLimits strong = announced;
   strong.max_force = 500.0;
   strong.max_stiffness = 50.0;
   strong.max_torque = 1e4;
-  d.announced.write(strong);
+  d.announced.write(LimitsAnnouncement{false, strong});
   ASSERT_TRUE(wait_for([&] {
     loop.latest_params(published);
     return published.params.limits.max_force == m.defaults.limits.max_force;
@@ -340,6 +344,70 @@ TEST(ServoLoop, AnnouncedLimitsTightenTheParamsAndKeepTunedMaterials) {
   EXPECT_DOUBLE_EQ(published.params.materials[m.lesions[0].material].mu_s, 0.9);
   EXPECT_TRUE(d.last_status.limits_acknowledged);
   EXPECT_EQ(loop.refused_limits(), 1u);
+}
+
+TEST(ServoLoop, TheAcknowledgementIsSetExactlyWhileAnnouncedLimitsApply) {
+  // Announced limits apply with the acknowledgement (wrench flag bit 15); refused ones (no device
+  // renders 1e-300 N or 1e-300 N/mm: the force would be zero with no flag saying why) and withdrawn
+  // ones (a new client without a hello) put the scene's limits back with the acknowledgement clear.
+  // (A refused announcement once cleared the flag and kept the earlier 0.1 N; 1e-300 was accepted.)
+  Model m = friction_block();
+  HoldDevice d(pressing(m, 1.0));
+  ServoLoop loop(m, d, quiet_options());
+  loop.start();
+  PublishedParams published;
+  const DeviceLimits scene = m.defaults.limits;
+  const auto announce = [&](double force, double stiffness) {
+    DeviceLimits l;
+    l.max_force = force;
+    l.max_stiffness = stiffness;
+    d.announced.write(LimitsAnnouncement{false, l});
+  };
+  const auto in_force = [&](double force, double stiffness, bool acknowledged) {
+    return wait_for([&] {
+      loop.latest_params(published);
+      const Params& p = published.params;
+      return p.limits.max_force == force && p.limits.max_stiffness == stiffness &&
+             p.gains.k_trans == std::min(m.defaults.gains.k_trans, stiffness) &&
+             d.acknowledged.load() == acknowledged;
+    });
+  };
+  ParamProblem why;
+
+  // 0.1 N and 0.01 N/mm, the smallest a device may have: in force, acknowledged.
+  announce(0.1, 0.01);
+  ASSERT_TRUE(in_force(0.1, 0.01, true));
+  // 1e-300 N: refused, the scene's limits and coupling back, not acknowledged, the reason kept.
+  announce(1e-300, 1.0);
+  ASSERT_TRUE(in_force(scene.max_force, scene.max_stiffness, false));
+  EXPECT_EQ(loop.refused_limits(), 1u);
+  ASSERT_TRUE(loop.latest_refusal(why));
+  EXPECT_STREQ(why.field, "max_force");
+  EXPECT_THAT(why.rule, ::testing::HasSubstr("0.1"));
+  // Again in force; then 1e-300 N/mm, refused the same way.
+  announce(0.1, 0.01);
+  ASSERT_TRUE(in_force(0.1, 0.01, true));
+  announce(5.0, 1e-300);
+  ASSERT_TRUE(in_force(scene.max_force, scene.max_stiffness, false));
+  ASSERT_TRUE(loop.latest_refusal(why));
+  EXPECT_STREQ(why.field, "max_stiffness");
+  // A workspace that misses the scene's: refused.
+  DeviceLimits far;
+  far.workspace = Eigen::AlignedBox3d(Vec3::Constant(1e4), Vec3::Constant(1e4 + 1));
+  announce(0.5, 0.5);
+  ASSERT_TRUE(in_force(0.5, 0.5, true));
+  d.announced.write(LimitsAnnouncement{false, far});
+  ASSERT_TRUE(in_force(scene.max_force, scene.max_stiffness, false));
+  ASSERT_TRUE(loop.latest_refusal(why));
+  EXPECT_STREQ(why.field, "workspace");
+  // Withdrawn: the scene's, not acknowledged, and not counted as refused.
+  announce(0.5, 0.5);
+  ASSERT_TRUE(in_force(0.5, 0.5, true));
+  d.announced.write(LimitsAnnouncement{true, DeviceLimits{}});
+  ASSERT_TRUE(in_force(scene.max_force, scene.max_stiffness, false));
+  loop.stop();
+  EXPECT_EQ(loop.refused_limits(), 3u);
+  EXPECT_FALSE(loop.latest_refusal(why));  // nothing refused since the last look
 }
 
 TEST(ServoLoop, StartsFromGivenParamsMadeForItsModel) {

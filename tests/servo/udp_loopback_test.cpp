@@ -1,8 +1,10 @@
 // The UDP bridge end to end over loopback: a client socket streams poses to a UdpDevice driven by a
 // real ServoLoop on friction-block; wrenches come back echoing the sequence numbers; malformed,
 // truncated, out-of-order, duplicate, stale, non-finite, non-unit and foreign packets are rejected and
-// counted while the loop runs on; silence zeroes the force; a hello's limits bound the wrench and set
-// the coupling stiffness through the servo loop's Params. No wall-clock timing is asserted.
+// counted while the loop runs on; silence zeroes the force and stops the wrenches (each pose is
+// answered once at most); a hello's limits bound the wrench and set the coupling stiffness through the
+// servo loop's Params, and a new client without a hello or a refused hello puts the scene's back. No
+// wall-clock timing is asserted.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -229,13 +231,21 @@ TEST(UdpLoopback, PosesInWrenchesOutRejectionsCountedWhileTheLoopRuns) {
   EXPECT_GT(bridge.loop.timing().cycles, cycles_before);
   EXPECT_TRUE(bridge.loop.running());
 
-  // Silence: the loop keeps answering, with zero force flagged stale.
-  ASSERT_TRUE(test::wait_for([&] {
-    client.drain(wrenches, invalid);
-    return (wrenches.back().flags & kSafetyStale) != 0;
-  }));
-  EXPECT_TRUE(wrenches.back().force.isZero());
-  EXPECT_TRUE(wrenches.back().torque.isZero());
+  // Silence: the loop runs on with zero force flagged stale, and the bridge stops answering: never
+  // more wrenches than the client sent packets.
+  ServoSnapshot snapshot;
+  ASSERT_TRUE(test::wait_for(
+      [&] { return bridge.loop.latest(snapshot) && (snapshot.safety_flags & kSafetyStale) != 0; }));
+  EXPECT_TRUE(snapshot.force.isZero());
+  EXPECT_TRUE(snapshot.torque.isZero());
+  ASSERT_TRUE(test::wait_for([&] { return bridge.device.bridge_counters().withheld > 100; }));
+  const BridgeCounters silent = bridge.device.bridge_counters();
+  ASSERT_TRUE(
+      test::wait_for([&] { return bridge.device.bridge_counters().withheld > silent.withheld + 100; }));
+  EXPECT_EQ(bridge.device.bridge_counters().sent, silent.sent);
+  EXPECT_LE(silent.sent, silent[BridgeVerdict::AcceptedPose] + silent[BridgeVerdict::AcceptedHello]);
+  client.drain(wrenches, invalid);
+  EXPECT_EQ(wrenches.size(), silent.sent);
   bridge.loop.stop();
 
   // The counters as the viewer's panel sees them.
@@ -320,6 +330,67 @@ TEST(UdpLoopback, AnnouncedStiffnessSetsTheCouplingAndIsReported) {
   ASSERT_FALSE(wrenches.empty());
   EXPECT_NE(wrenches.back().flags & bridge::kWrenchLimitsAcknowledged, 0);
   EXPECT_EQ(invalid, 0);
+}
+
+TEST(UdpLoopback, EachSessionStartsFromTheScenesLimits) {
+  // Client A announces 0.1 N and streams: its wrenches are acknowledged. It falls silent; client B
+  // streams without a hello: the scene's limits apply, unacknowledged (B once inherited A's 0.1 N).
+  // B's hello announcing 1e-300 N is refused, naming why: still the scene's, unacknowledged.
+  Model model = test::friction_block();
+  UdpOptions options = Bridge::options(model);
+  options.session_timeout = 0.3;
+  UdpDevice device(options);
+  ServoLoop loop(model, device, Bridge::servo_options());
+  loop.start();
+  const Pose home = model.tool_home;
+  PublishedParams published;
+  const auto max_force_is = [&](double f) {
+    return test::wait_for([&] {
+      loop.latest_params(published);
+      return published.params.limits.max_force == f;
+    });
+  };
+  // Streams `count` poses at ~1 kHz and returns the last wrench that came back.
+  const auto stream = [&](const Client& client, uint32_t& seq, int count) {
+    std::vector<bridge::WrenchPacket> wrenches;
+    int invalid = 0;
+    for (int i = 0; i < count; ++i) {
+      client.send(pose_packet(seq++, client_clock(), home));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_TRUE(test::wait_for([&] {
+      client.drain(wrenches, invalid);
+      return !wrenches.empty() && wrenches.back().sequence == seq - 1;
+    }));
+    EXPECT_EQ(invalid, 0);
+    return wrenches.empty() ? bridge::WrenchPacket{} : wrenches.back();
+  };
+  const double scene_force = model.defaults.limits.max_force;
+  {
+    Client a(device.port());
+    uint32_t seq = 0;
+    a.send(hello_packet(seq++, 0.1));
+    ASSERT_TRUE(max_force_is(0.1));
+    EXPECT_NE(stream(a, seq, 50).flags & bridge::kWrenchLimitsAcknowledged, 0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  Client b(device.port());
+  uint32_t seq = 1000;
+  const bridge::WrenchPacket b_last = stream(b, seq, 50);
+  ASSERT_TRUE(max_force_is(scene_force));
+  EXPECT_EQ(b_last.flags & bridge::kWrenchLimitsAcknowledged, 0);
+  EXPECT_EQ(published.params.gains.k_trans, model.defaults.gains.k_trans);
+  EXPECT_DOUBLE_EQ(device.info().limits.max_force, scene_force);
+
+  b.send(hello_packet(seq++, 1e-300));
+  ASSERT_TRUE(test::wait_for([&] { return loop.refused_limits() == 1; }));
+  EXPECT_EQ(stream(b, seq, 50).flags & bridge::kWrenchLimitsAcknowledged, 0);
+  loop.latest_params(published);
+  EXPECT_EQ(published.params.limits.max_force, scene_force);
+  loop.stop();
+  ParamProblem why;
+  ASSERT_TRUE(loop.latest_refusal(why));
+  EXPECT_STREQ(why.field, "max_force");
 }
 
 TEST(UdpLoopback, StreamingAllocatesNothing) {

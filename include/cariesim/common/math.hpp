@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "cariesim/common/hash.hpp"
+
 namespace cariesim {
 
 using Vec3 = Eigen::Vector3d;                 ///< 3-vector, double
@@ -31,6 +33,9 @@ struct Pose {
     return p.allFinite() && q.coeffs().allFinite() && std::abs(q.squaredNorm() - 1.0) < 1e-6;
   }
 };
+/// A key hashes both fields of a Pose (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<Pose> = 2;
 
 /// Rotation vector (axis * angle, rad) of a unit quaternion; the angle is in [0, pi].
 inline Vec3 rotation_vector(const Quat& q_in) {

@@ -45,7 +45,16 @@ struct DeviceStatus {
   double depth = 0.0;                ///< mm, insertion depth
   uint32_t safety_flags = 0;         ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
   uint32_t step_flags = 0;           ///< the engine step's flag bits (render/step.hpp StepFlag)
-  bool limits_acknowledged = false;  ///< the limits the device announced last (poll_limits) are in force
+  bool limits_acknowledged = false;  ///< limits the device announced (poll_limits) are in force now
+};
+
+/// What a device said about its limits (Device::poll_limits): limits it announced, or that the
+/// announcement no longer holds.
+struct LimitsAnnouncement {
+  /// True when the last announcement was withdrawn (the UDP bridge: a new client that sent no
+  /// hello): no announced limits apply any more, the scene's do.
+  bool withdrawn = false;
+  DeviceLimits limits;  ///< as announced (when not withdrawn)
 };
 
 /// A named event counter of a device (e.g. the UDP bridge's rejected packets), for panels and notes.
@@ -72,10 +81,12 @@ class Device {
   virtual void write(const Vec3& force, const Vec3& torque) = 0;
   /// The state that goes with the next write() (called just before it). Servo thread; non-blocking.
   virtual void set_status(const DeviceStatus& status) { (void)status; }
-  /// Limits the device announced since the last call (e.g. a UDP client's hello), raw: the servo
-  /// loop checks them and tightens its own to them. True, with `out` set, when there are new ones.
-  /// Servo thread; non-blocking, allocation-free. Devices that never announce anything return false.
-  virtual bool poll_limits(DeviceLimits& out) {
+  /// What the device announced about its limits since the last call (e.g. a UDP client's hello, raw;
+  /// or a new client without one: withdrawn): the servo loop checks announced limits and tightens
+  /// the scene's to them, and goes back to the scene's when they are withdrawn. True, with `out` set,
+  /// when there is news (the newest only). Servo thread; non-blocking, allocation-free. Devices that
+  /// never announce anything return false.
+  virtual bool poll_limits(LimitsAnnouncement& out) {
     (void)out;
     return false;
   }

@@ -2,9 +2,11 @@
 /// The UDP bridge device (`udp:PORT[:HOST]`, docs/device-bridge.md). A receiver thread parses client
 /// datagrams strictly (BridgeInbox) and hands the newest valid pose to the servo thread through a
 /// TripleBuffer; the servo thread's write() hands the wrench to a sender thread through another
-/// TripleBuffer and wakes it; a hello's limits reach the servo thread through a third (poll_limits).
-/// The servo thread never touches the socket, never locks, never allocates. The bridge sends the
-/// wrench it is given: the servo loop's Params, tightened to the announced limits, bound it.
+/// TripleBuffer and wakes it; a hello's limits (or their withdrawal when a new client comes without
+/// one) reach the servo thread through a third (poll_limits). The servo thread never touches the
+/// socket, never locks, never allocates. The bridge sends the wrench it is given (the servo loop's
+/// Params, tightened to the announced limits, bound it), but only as many as the client sent
+/// packets and only while it keeps sending (ReplyBudget).
 
 #include <array>
 #include <atomic>
@@ -45,6 +47,9 @@ struct BridgeCounters {
   uint64_t received = 0;                                   ///< datagrams read from the socket
   uint64_t sent = 0;                                       ///< wrench packets sent
   uint64_t send_errors = 0;                                ///< sendto failures
+  /// Wrenches not sent: the client was silent for the session timeout, or as many wrenches as it
+  /// sent packets within the last timeout already went out (ReplyBudget).
+  uint64_t withheld = 0;
   uint64_t sessions = 0;  ///< sessions started (first packet, hello, or a new client after a silence)
   uint64_t resyncs = 0;   ///< times the session followed a client whose sequence or clock jumped
 
@@ -83,6 +88,8 @@ class BridgeInbox {
   [[nodiscard]] const bridge::ClientPacket& packet() const { return packet_; }
   /// The current session's client address key (0 before the first packet).
   [[nodiscard]] uint64_t client() const { return client_; }
+  /// Sessions started so far (the receiver's thread; BridgeCounters::sessions for any thread).
+  [[nodiscard]] uint64_t session_count() const { return sessions_.load(std::memory_order_relaxed); }
   /// Datagrams by verdict and sessions (any thread).
   [[nodiscard]] BridgeCounters counters() const;
   /// Ends the session (the next valid packet from anyone starts one).
@@ -106,6 +113,31 @@ class BridgeInbox {
   std::atomic<uint64_t> resyncs_{0};
   std::array<std::atomic<uint64_t>, kBridgeVerdictCount> counts_{};
   std::atomic<uint64_t> sessions_{0};
+};
+
+/// Which wrenches the bridge may send (docs/device-bridge.md, "Replies"): each packet accepted from
+/// the client is answered at most once (by the next wrench the servo loop writes after it), and only
+/// within `window` (the session timeout) of it. So the bridge never sends more packets than it
+/// received within the last timeout, and one datagram, spoofed or not, gets one wrench back instead
+/// of making the station a reflector. The receiver thread notes each accepted packet, the sender
+/// thread asks before each wrench. Lock-free and allocation-free.
+class ReplyBudget {
+ public:
+  /// `window` (s): the session timeout.
+  explicit ReplyBudget(double window = 1.0);
+  /// Forgets every packet and reply (no thread may use the budget meanwhile).
+  void reset();
+  /// A packet was accepted from the client at `now_ns` (CLOCK_MONOTONIC ns). One thread.
+  void received(int64_t now_ns);
+  /// Whether a wrench may go out at `now_ns`: a packet accepted since the last wrench that went out,
+  /// at most `window` ago. Counts it as answered when so. One (other) thread.
+  bool take(int64_t now_ns);
+
+ private:
+  int64_t window_ns_;
+  std::atomic<uint64_t> received_{0};      // packets accepted so far
+  std::atomic<int64_t> last_received_ns_;  // when the last one was
+  uint64_t answered_ = 0;                  // the sender's thread only: received_ at its last wrench
 };
 
 /// Settings of the UDP device.
@@ -141,8 +173,10 @@ class UdpDevice : public Device {
   DeviceState read(double now) override;
   void write(const Vec3& force, const Vec3& torque) override;
   void set_status(const DeviceStatus& status) override;
-  /// A hello's limits (as announced; the resolution, which a hello does not carry, as 0), once.
-  bool poll_limits(DeviceLimits& out) override;
+  /// A hello's limits (as announced; the resolution, which a hello does not carry, as 0), once; or,
+  /// once, that they were withdrawn: a session began with a packet from another client than the one
+  /// whose hello was announced last, without a hello of its own.
+  bool poll_limits(LimitsAnnouncement& out) override;
   [[nodiscard]] std::vector<DeviceCounter> counters() const override;
   /// The counters as a struct (any thread).
   [[nodiscard]] BridgeCounters bridge_counters() const;
@@ -164,7 +198,9 @@ class UdpDevice : public Device {
     uint64_t count = 0;        // accepted poses so far
   };
   void receive_loop();
-  void send_loop(uint32_t seen);  // `seen`: the wrench ticket when start() made the thread
+  void send_loop(uint32_t seen);
+  /// Receiver: tells the servo thread the announced limits no longer hold; info() reports UdpOptions'.
+  void withdraw_limits();  // `seen`: the wrench ticket when start() made the thread
 
   UdpOptions options_;
   int socket_ = -1;
@@ -175,10 +211,13 @@ class UdpDevice : public Device {
   uint64_t accepted_ = 0;                        // receiver thread
   TripleBuffer<Inbound> inbound_;                // receiver -> servo
   TripleBuffer<bridge::WrenchPacket> outbound_;  // servo -> sender
-  TripleBuffer<DeviceLimits> announced_limits_;  // receiver -> servo, per hello
+  TripleBuffer<LimitsAnnouncement> announced_limits_;  // receiver -> servo, per hello or withdrawal
+  uint64_t hello_client_ = 0;                          // receiver: whose hello is announced (0: none)
+  uint64_t session_seen_ = 0;                          // receiver: the inbox's sessions so far
+  ReplyBudget budget_;                                 // receiver notes, sender takes
   std::atomic<uint32_t> outbound_ticket_{0};     // bumped per write; the sender waits on it
   std::atomic<uint64_t> client_address_{0};      // IPv4 address << 16 | port (network order); 0 = none
-  std::atomic<uint64_t> sent_{0}, send_errors_{0};
+  std::atomic<uint64_t> sent_{0}, send_errors_{0}, withheld_{0};
   std::string realtime_status_;    // set by start(), read under info_mutex_
   mutable std::mutex info_mutex_;  // guards announced_ and remote_name_ (never the servo thread's)
   DeviceLimits announced_;         // what info() reports

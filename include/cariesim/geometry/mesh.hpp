@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/common/hash.hpp"
 #include "cariesim/common/math.hpp"
 
 namespace cariesim {
@@ -56,6 +57,9 @@ struct MeshLoadOptions {
   bool check_self_intersections = true;  ///< count intersecting triangle pairs: an error when
                                          ///< require_closed, else a warning
 };
+/// A key hashes every field of MeshLoadOptions (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<MeshLoadOptions> = 4;
 
 /// Longest boundary loop (edges) that validation closes when fill_small_holes is set.
 inline constexpr std::size_t kMaxFilledHoleEdges = 8;

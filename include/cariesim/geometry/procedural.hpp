@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "cariesim/common/hash.hpp"
 #include "cariesim/geometry/mesh.hpp"
 
 namespace cariesim {
@@ -28,6 +29,9 @@ struct MolarParams {
   double resolution = 0.15;    ///< mm, target edge length of the surface mesh
   bool mirrored = false;       ///< buccal at -y (lower left teeth)
 };
+/// A key hashes every field of MolarParams (common/hash.hpp: a new field must be counted here).
+template <>
+inline constexpr std::size_t kKeyFields<MolarParams> = 8;
 /// Throws cariesim::Error on parameters out of range (cusps not 4 or 5, non-positive sizes, ...).
 TriangleMesh make_molar(const MolarParams& params = {});
 
@@ -40,6 +44,9 @@ struct PremolarParams {
   double resolution = 0.15;   ///< mm
   bool mirrored = false;      ///< buccal at -y (lower left teeth)
 };
+/// A key hashes every field of PremolarParams (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<PremolarParams> = 6;
 /// Throws cariesim::Error on parameters out of range.
 TriangleMesh make_premolar(const PremolarParams& params = {});
 
@@ -62,6 +69,9 @@ struct GingivaParams {
   double height = 4.0;      ///< mm, thickness below the margin
   double resolution = 0.5;  ///< mm
 };
+/// A key hashes every field of GingivaParams (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<GingivaParams> = 4;
 /// A rounded-rectangle cross-section (width x height) swept along the path, hanging below it, with
 /// round ends; a single point gives a round pad. Throws cariesim::Error on an empty or non-finite path.
 TriangleMesh make_gingiva_band(const GingivaParams& params);
@@ -73,6 +83,9 @@ struct TongueParams {
   double height = 15.0;     ///< mm
   double resolution = 1.0;  ///< mm
 };
+/// A key hashes every field of TongueParams (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<TongueParams> = 4;
 /// A superellipsoid narrowing toward its tip at +x. Throws cariesim::Error on non-positive sizes.
 TriangleMesh make_tongue(const TongueParams& params = {});
 
@@ -89,6 +102,9 @@ struct ExplorerParams {
   double handle_length = 90.0;       ///< mm
   double handle_radius = 4.5;        ///< mm
 };
+/// A key hashes every field of ExplorerParams (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<ExplorerParams> = 9;
 
 /// One sphere of the tool's chain.
 struct ToolSphere {

@@ -36,6 +36,11 @@ inline constexpr double kMaxStiffness = 1e6;     ///< N/mm (also N·mm/rad for k
 inline constexpr double kMaxThreshold = 1e3;     ///< N, largest F_p* or F_e*
 inline constexpr double kMaxDeviceForce = 1e3;   ///< N, largest force limit a device may announce
 inline constexpr double kMaxDeviceTorque = 1e5;  ///< N·mm, largest torque limit a device may announce
+/// Smallest limits a device may have: below them the rendered wrench is too weak to feel, so a limit
+/// of 1e-300 N would zero it with no flag saying why (N, N/mm, N·mm).
+inline constexpr double kMinDeviceForce = 0.1;
+inline constexpr double kMinDeviceStiffness = 0.01;
+inline constexpr double kMinDeviceTorque = 1.0;
 
 /// What is wrong with a value: the field as scene files name it, and the rule it breaks (static
 /// strings). Empty (false) when nothing is.
@@ -49,8 +54,9 @@ struct ParamProblem {
 /// k_e, k_θ and every k_c in (0, kMaxStiffness]; F_p*, F_e* in [0, kMaxThreshold]; k_c layer bounds
 /// increasing. Allocation-free.
 ParamProblem check_material(const Material& material);
-/// Checks device limits: force in (0, kMaxDeviceForce] N, stiffness in (0, kMaxStiffness] N/mm,
-/// torque in (0, kMaxDeviceTorque] N·mm, resolution >= 0, a non-empty workspace. Allocation-free.
+/// Checks device limits: force in [kMinDeviceForce, kMaxDeviceForce] N, stiffness in
+/// [kMinDeviceStiffness, kMaxStiffness] N/mm, torque in [kMinDeviceTorque, kMaxDeviceTorque] N·mm,
+/// resolution in [0, 1000] mm, a finite, non-empty workspace. Allocation-free.
 ParamProblem check_limits(const DeviceLimits& limits);
 
 /// The Params a device's limits allow: `authored` with limits tightened to `device` (eq. 6's k_p is

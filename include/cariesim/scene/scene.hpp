@@ -73,6 +73,13 @@ struct BuildReport {
   double total_seconds = 0.0;     ///< s, the whole build_model call
 };
 
+/// The tree cache's key of one part of a scene object (`part` -1: the healthy or whole part, k: the
+/// caries of its k-th lesion) as build_model uses it: every field of the object's shape (a mesh file
+/// by content), pose and tree settings (`params`: after BuildOptions' overrides; the object's voxel),
+/// and of the world shapes of its lesions (snapped), in order. Reads a mesh shape's file.
+uint64_t part_cache_key(const ObjectDesc& object, const TreeParams& params,
+                        const std::vector<LesionShape>& lesions, int part);
+
 /// Builds the engine's Model: meshes or procedural shapes, level sets, CSG with the lesions
 /// (healthy = tooth - lesion, caries = tooth ∩ lesion), sphere trees (cached), materials, the tool.
 /// Throws cariesim::Error naming the scene entry (file:line:column) when a part cannot be built, a

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cariesim/collision/collide.hpp"
+#include "cariesim/common/hash.hpp"
 #include "cariesim/common/math.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/render/model.hpp"
@@ -42,6 +43,15 @@ struct ShapeDesc {
   GingivaParams gingiva;        ///< Gingiva (path in the object frame)
   TongueParams tongue;          ///< Tongue
 };
+/// ShapeDesc's fields (common/hash.hpp); its key is hash_fields below.
+template <>
+inline constexpr std::size_t kKeyFields<ShapeDesc> = 8;
+/// Adds every field of a shape to a key (common/hash.hpp), a mesh file by its content instead of its
+/// name, with the options it is loaded with (mesh_load_options). A field added to ShapeDesc does not
+/// compile until it is hashed there.
+void hash_fields(BuildKey& key, const ShapeDesc& shape);
+/// How build_model loads a Mesh shape's file.
+MeshLoadOptions mesh_load_options(const ShapeDesc& shape);
 
 /// Name used in scene files ("mesh", "cuboid", "molar", "premolar", "gingiva", "tongue").
 std::string_view shape_kind_name(ShapeDesc::Kind kind);
@@ -59,6 +69,9 @@ struct TreeDesc {
   std::optional<double> voxel;  ///< mm, level-set voxel of the object and its lesions; unset: chosen
                                 ///< from the tolerance (or octree depth) and the object's size
 };
+/// A key hashes both fields of a TreeDesc (common/hash.hpp).
+template <>
+inline constexpr std::size_t kKeyFields<TreeDesc> = 2;
 
 /// One scene object: a tooth, a block, gingiva, the tongue.
 struct ObjectDesc {

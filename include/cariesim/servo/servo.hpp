@@ -145,7 +145,9 @@ Params initial_params(const Model& model, const DeviceLimits& device);
 /// within the device's (initial_params); when the device announces limits (Device::poll_limits) and
 /// check_limits accepts them, they become the scene's within the announced ones, the coupling
 /// stiffness at most the new maximum stiffness (eq. 6's k_p is that maximum); the materials, with
-/// whatever the user changed, stay.
+/// whatever the user changed, stay. Announced limits that check_limits refuses, or that the device
+/// withdraws (a new client without a hello), put the scene's limits and coupling back; the status
+/// the device gets (DeviceStatus::limits_acknowledged) is true exactly while announced limits apply.
 class ServoLoop {
  public:
   /// The loop owns a State for `model` and the running Params (options.params, or the model's
@@ -177,6 +179,9 @@ class ServoLoop {
   [[nodiscard]] uint64_t rejected_changes() const { return rejected_changes_.load(); }
   /// Device limit announcements refused (check_limits found a problem).
   [[nodiscard]] uint64_t refused_limits() const { return refused_limits_.load(); }
+  /// Why the last refused announcement was refused (the field and the rule it broke), if one was
+  /// refused since the last call (one reader thread).
+  bool latest_refusal(ParamProblem& out) { return refusals_.read(out); }
   /// The running Params, if the servo thread published a new version since the last call (one
   /// reader thread; the first call after construction always gets the starting ones).
   bool latest_params(PublishedParams& out) { return params_out_.read(out); }
@@ -209,6 +214,7 @@ class ServoLoop {
   ForceSafety safety_;
   TripleBuffer<ServoSnapshot> snapshots_;
   TripleBuffer<PublishedParams> params_out_;  // slots sized for the model's materials at construction
+  TripleBuffer<ParamProblem> refusals_;       // why device limits were refused, servo -> any one reader
   SpscQueue<ParamChange> changes_{256};
   std::thread thread_, standby_thread_;
   std::atomic<bool> running_{false};

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/common/hash.hpp"
 #include "cariesim/common/progress.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
@@ -36,6 +37,9 @@ struct TreeParams {
   std::size_t max_leaves = 50000;  ///< tight: hard cap (the build reports when it was reached)
   int branching = 4;               ///< children per inner node of the hierarchy
 };
+/// A key hashes every field of TreeParams (common/hash.hpp: a new field must be counted here).
+template <>
+inline constexpr std::size_t kKeyFields<TreeParams> = 8;
 
 /// Level-set resolution for building a tree of a mesh: the voxel the mode's fidelity needs (tight:
 /// (10/3) * tolerance, 0.05 mm for 0.015 mm; octree: 1/8 of a leaf cell), coarsened when the band

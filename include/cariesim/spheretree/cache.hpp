@@ -6,23 +6,18 @@
 #include <optional>
 #include <string_view>
 
+#include "cariesim/common/hash.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
 
 namespace cariesim {
 
-/// Incremental 64-bit hash (FNV-1a) of everything that determines a build.
-class BuildKey {
- public:
-  BuildKey& add(std::string_view bytes);
-  BuildKey& add(const void* data, std::size_t size);
-  BuildKey& add(double value);
-  BuildKey& add(int64_t value);
-  [[nodiscard]] uint64_t value() const { return hash_; }
-
- private:
-  uint64_t hash_ = 1469598103934665603ull;
-};
+/// The one version of the tree cache: of its file layout and of everything that makes a cached part
+/// without being a parameter of it (the tree builders, mesh import and repair, level sets, CSG, seam
+/// leaves, display meshing). Bump it when any of them changes what a part holds; entries of another
+/// version are never read (TreeCache names and checks entries with it). Keys (BuildKey) hold the
+/// parameters: every field of every parameter struct (common/hash.hpp).
+inline constexpr uint32_t kTreeCacheVersion = 9;
 
 /// A cached build: a tree and the display mesh of the same part.
 struct CachedPart {
@@ -35,7 +30,8 @@ class TreeCache {
   /// `dir` defaults to $CARIESIM_CACHE_DIR, else $XDG_CACHE_HOME/cariesim, else ~/.cache/cariesim.
   explicit TreeCache(std::filesystem::path dir = default_dir());
   static std::filesystem::path default_dir();
-  /// Returns the part when present and readable (a corrupt entry is ignored and removed).
+  /// Returns the part stored under `key` by this kTreeCacheVersion when present and readable (a
+  /// corrupt entry is ignored and removed).
   [[nodiscard]] std::optional<CachedPart> load(uint64_t key) const;
   /// Writes atomically (temporary file + rename); failures are reported as warnings, not errors.
   void store(uint64_t key, const CachedPart& part) const;

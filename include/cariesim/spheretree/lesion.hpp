@@ -4,6 +4,7 @@
 #include <string_view>
 #include <vector>
 
+#include "cariesim/common/hash.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 
 namespace cariesim {
@@ -32,6 +33,9 @@ struct LesionShape {
   /// The level set of this shape, sampled on `voxel_mm` voxels around it.
   [[nodiscard]] LevelSet to_level_set(double voxel_mm, double half_band_mm) const;
 };
+/// A key hashes every field of LesionShape (common/hash.hpp: a new field must be counted here).
+template <>
+inline constexpr std::size_t kKeyFields<LesionShape> = 8;
 
 std::string_view lesion_kind_name(LesionShape::Kind kind);
 bool parse_lesion_kind(std::string_view name, LesionShape::Kind& out);
