@@ -12,11 +12,11 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "yaml_reader.hpp"
 
 namespace cariesim {
 
