@@ -32,8 +32,8 @@
 
 struct GLFWwindow;
 
-namespace cariesim {
-class io::JsonWriter;
+namespace cariesim::io {
+class JsonWriter;
 }
 
 namespace cariesim::viewer {
