@@ -1,13 +1,21 @@
-// cariesim: one binary, subcommands (DESIGN.md §6). Each subcommand lives in its own file and
+// cariesim: one binary, subcommands (docs/cli.md). Each subcommand lives in its own file and
 // registers itself through commands.hpp.
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <memory>
 
-#include "commands.hpp"
 #include "cariesim/common/error.hpp"
+#include "commands.hpp"
 
 int main(int argc, char** argv) {
+  // Every log line goes to stderr, so stdout carries only a command's output (`tree --json`, `servo`'s
+  // report): spdlog's default logger, set once here before anything logs.
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("", std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
   CLI::App app{"cariesim: 6-DoF haptic simulator for probing dental caries"};
   app.require_subcommand(0, 1);
   cariesim::cli::Registry registry;

@@ -6,10 +6,10 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/file.hpp"
 #include "cariesim/training/course.hpp"
 
 namespace cariesim::viewer {
@@ -94,11 +94,7 @@ std::vector<ScriptStep> parse_script(std::string_view text, const std::string& f
 }
 
 std::vector<ScriptStep> load_script(const std::string& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(fmt::format("{}: cannot read the script file", file));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_script(text.str(), file);
+  return parse_script(io::read_file(file, "trainee script"), file);
 }
 
 }  // namespace cariesim::viewer

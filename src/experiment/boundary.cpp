@@ -89,7 +89,7 @@ void run_boundary(const ExperimentOptions& options, io::JsonWriter& summary) {
     const double ft_after = n_after ? after / n_after : 0.0;
     const bool hooked = probed && graphic_past < kHookStall;
     const std::string csv = std::string("boundary_") + run.name + ".csv";
-    write_csv(options.out / csv, "t,h_x_from_border,g_x_from_border,g_z,fx,fz", rows);
+    write_csv(options.out / csv, {"t", "h_x_from_border", "g_x_from_border", "g_z", "fx", "fz"}, rows);
     say(options, "boundary: " + std::string(run.name) + ": Ft " + std::to_string(ft_before) + " -> " +
                      std::to_string(ft_after) + " N" + (hooked ? ", hooked" : ""));
     summary.begin_object()

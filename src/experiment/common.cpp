@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/csv.hpp"
 
 namespace cariesim::experiment {
 
@@ -18,20 +18,17 @@ void write_text(const std::filesystem::path& file, std::string_view text) {
   if (!out) throw Error(file.string() + ": write failed");
 }
 
-void write_csv(const std::filesystem::path& file, const std::string& header,
+void write_csv(const std::filesystem::path& file, const std::vector<std::string>& header,
                const std::vector<std::vector<double>>& rows, const std::vector<std::string>& text) {
-  std::ostringstream out;
-  out << header << '\n';
-  char buf[32];
+  // Through the one CSV writer (io/csv.hpp), numbers as %.6g.
+  io::CsvWriter csv(file);
+  csv.header(header);
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    for (std::size_t j = 0; j < rows[i].size(); ++j) {
-      std::snprintf(buf, sizeof buf, "%.6g", rows[i][j]);
-      out << (j ? "," : "") << buf;
-    }
-    if (i < text.size()) out << ',' << text[i];
-    out << '\n';
+    for (const double v : rows[i]) csv.number(v, 6);
+    if (i < text.size()) csv.text(text[i]);
+    csv.end_row();
   }
-  write_text(file, out.str());
+  csv.close();
 }
 
 void say(const ExperimentOptions& options, const std::string& line) {

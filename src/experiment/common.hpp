@@ -31,8 +31,9 @@ class Path {
 /// A pose with the given tip position and orientation.
 inline Pose at(const Vec3& p, const Quat& q) { return Pose{p, q}; }
 
-/// Writes a CSV with a header line and rows of numbers (%.6g) plus an optional last text column.
-void write_csv(const std::filesystem::path& file, const std::string& header,
+/// Writes a CSV (io::CsvWriter) with the column keys and rows of numbers (%.6g) plus an optional last
+/// text column.
+void write_csv(const std::filesystem::path& file, const std::vector<std::string>& header,
                const std::vector<std::vector<double>>& rows, const std::vector<std::string>& text = {});
 /// Writes text to a file; throws cariesim::Error when it cannot.
 void write_text(const std::filesystem::path& file, std::string_view text);

@@ -72,7 +72,7 @@ void run_friction(const ExperimentOptions& options, io::JsonWriter& summary) {
     }
     char name[64];
     std::snprintf(name, sizeof name, "friction_%s_mus%.2f_mud%.2f.csv", run.group, run.mu_s, run.mu_d);
-    write_csv(options.out / name, "t,h_x,g_x,fx,fz,slips", rows);
+    write_csv(options.out / name, {"t", "h_x", "g_x", "fx", "fz", "slips"}, rows);
     say(options, std::string("friction: ") + name + ": mean |Fx| " + std::to_string(fx.mean) + " N, slips " +
                      std::to_string(slips));
     summary.begin_object()

@@ -113,7 +113,7 @@ void run_kc_sweep(const ExperimentOptions& options, const Model& base, const Tra
   summary.end_array();
   summary.field("kc_sweep_speed_mm_s", kSweepSpeed);
   summary.field("mild_severe_force_ratio", severe > 0.0 ? mild / severe : 0.0);
-  write_csv(options.out / "kc_sweep.csv", "run,t,depth,f_axial,name", rows, names);
+  write_csv(options.out / "kc_sweep.csv", {"run", "t", "depth", "f_axial", "name"}, rows, names);
   summary.field("kc_sweep_csv", "kc_sweep.csv");
 }
 
@@ -180,7 +180,9 @@ void run_insertion(const ExperimentOptions& options, io::JsonWriter& summary) {
     states.push_back(state_name(s.out.state));
   }
   write_csv(options.out / "insertion.csv",
-            "t,haptic_apex_depth,graphic_apex_depth,depth,f_z,f_norm,contacts,phase,state", rows, states);
+            {"t", "haptic_apex_depth", "graphic_apex_depth", "depth", "f_z", "f_norm", "contacts", "phase",
+             "state"},
+            rows, states);
 
   summary.field("experiment", "insertion").field("paper", "Fig. 14, §5.1");
   summary.field("k_e", caries.k_e)

@@ -175,7 +175,8 @@ void run_oral(const ExperimentOptions& options, io::JsonWriter& summary) {
       states.push_back(state_name(s.out.state));
     }
     const std::string csv = "oral_" + lesion.name + ".csv";
-    write_csv(options.out / csv, "t,normal_force,force,depth,tip_tissue,state", rows, states);
+    write_csv(options.out / csv, {"t", "normal_force", "force", "depth", "tip_tissue", "state"}, rows,
+              states);
     say(options, "oral: " + lesion.name + ": authored depth " + std::to_string(lesion.authored_depth) +
                      " mm, reached " + std::to_string(max_depth) + " mm (posture clearance " +
                      std::to_string(posture.clearance) + " mm, tilt " +

@@ -60,39 +60,33 @@ std::vector<SimSample> simulate(const Model& model, const Params& params, const 
   return samples;
 }
 
-SimCsvWriter::SimCsvWriter(const std::filesystem::path& file)
-    : file_(file), out_(std::fopen(file.c_str(), "w")) {
-  if (!out_) throw Error(file.string() + ": cannot write the simulation CSV: " + std::strerror(errno));
-  std::fputs(
-      "t,h_px,h_py,h_pz,h_qw,h_qx,h_qy,h_qz,g_px,g_py,g_pz,g_qw,g_qx,g_qy,g_qz,"
-      "fx,fy,fz,tx,ty,tz,state,depth,contacts,step_us\n",
-      out_);
+SimCsvWriter::SimCsvWriter(const std::filesystem::path& file) : out_(file) {
+  out_.header({"t",    "h_px", "h_py", "h_pz",  "h_qw",  "h_qx",     "h_qy",   "h_qz", "g_px",
+               "g_py", "g_pz", "g_qw", "g_qx",  "g_qy",  "g_qz",     "fx",     "fy",   "fz",
+               "tx",   "ty",   "tz",   "state", "depth", "contacts", "step_us"});
 }
 
-SimCsvWriter::~SimCsvWriter() {
-  if (out_) std::fclose(out_);
-}
+SimCsvWriter::~SimCsvWriter() = default;
 
+// One row: positions and forces with 6 decimals, quaternions with 9, the step time with 2.
 void SimCsvWriter::write(const SimSample& s) {
   const Pose& h = s.out.haptic;
   const Pose& g = s.out.graphic;
-  const int n =
-      std::fprintf(out_,
-                   "%.6f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
-                   "%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%s,%.6f,%d,%.2f\n",
-                   s.t, h.p.x(), h.p.y(), h.p.z(), h.q.w(), h.q.x(), h.q.y(), h.q.z(), g.p.x(), g.p.y(),
-                   g.p.z(), g.q.w(), g.q.x(), g.q.y(), g.q.z(), s.out.force.x(), s.out.force.y(),
-                   s.out.force.z(), s.out.torque.x(), s.out.torque.y(), s.out.torque.z(),
-                   state_name(s.out.state), s.out.depth, s.out.contacts, s.out.step_us);
-  if (n < 0 || std::ferror(out_)) throw Error(file_.string() + ": write failed: " + std::strerror(errno));
+  out_.fixed(s.t, 6);
+  for (const Pose* pose : {&h, &g}) {
+    for (int k = 0; k < 3; ++k) out_.fixed(pose->p[k], 6);
+    out_.fixed(pose->q.w(), 9).fixed(pose->q.x(), 9).fixed(pose->q.y(), 9).fixed(pose->q.z(), 9);
+  }
+  for (int k = 0; k < 3; ++k) out_.fixed(s.out.force[k], 6);
+  for (int k = 0; k < 3; ++k) out_.fixed(s.out.torque[k], 6);
+  out_.text(state_name(s.out.state)).fixed(s.out.depth, 6).integer(s.out.contacts).fixed(s.out.step_us, 2);
+  out_.end_row();
 }
 
 void SimCsvWriter::close() {
-  if (!out_) return;
-  const bool failed = std::ferror(out_) != 0;
-  const int rc = std::fclose(out_);
-  out_ = nullptr;
-  if (failed || rc != 0) throw Error(file_.string() + ": write failed: " + std::strerror(errno));
+  if (closed_) return;
+  closed_ = true;
+  out_.close();
 }
 
 void write_sim_csv(const std::filesystem::path& file, const std::vector<SimSample>& samples) {

@@ -6,20 +6,17 @@
 #include <assimp/Importer.hpp>
 #include <cctype>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <string_view>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
+#include "cariesim/io/file.hpp"
 #include "geometry/mesh_checks.hpp"
 
 namespace cariesim {
 
 namespace {
 
-// Mesh files larger than this are refused before reading (a tooth scan is a few MB).
-constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{1} << 30;
 // Bytes of a binary STL: 80-byte header, 4-byte count, 50 bytes per triangle.
 constexpr std::uint64_t kStlHeaderBytes = 84;
 constexpr std::uint64_t kStlTriangleBytes = 50;
@@ -39,20 +36,11 @@ Format format_of(const std::filesystem::path& file, const std::string& what) {
   fail(what, fmt::format("unsupported mesh format '{}' (expected .stl, .obj or .ply)", ext));
 }
 
+// The file's bytes through io::read_file (a regular file of at most kMaxMeshFileBytes, else its kind
+// or size is named), then not empty.
 std::string read_bytes(const std::filesystem::path& file, const std::string& what) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(file, ec);
-  if (ec || !std::filesystem::exists(status)) fail(what, "file not found (missing)");
-  if (!std::filesystem::is_regular_file(status)) fail(what, "not a regular file");
-  const std::uintmax_t size = std::filesystem::file_size(file, ec);
-  if (ec) fail(what, fmt::format("cannot read the file size: {}", ec.message()));
-  if (size == 0) fail(what, "empty file (0 bytes)");
-  if (size > kMaxFileBytes) fail(what, fmt::format("file too large ({} bytes)", size));
-  std::ifstream in(file, std::ios::binary);
-  if (!in) fail(what, "cannot open the file for reading");
-  std::string bytes(static_cast<std::size_t>(size), '\0');
-  in.read(bytes.data(), static_cast<std::streamsize>(size));
-  if (in.gcount() != static_cast<std::streamsize>(size)) fail(what, "could not read the whole file");
+  std::string bytes = io::read_file(file, "mesh", kMaxMeshFileBytes);
+  if (bytes.empty()) fail(what, "empty file (0 bytes)");
   return bytes;
 }
 
@@ -238,9 +226,8 @@ TriangleMesh load_mesh(const std::filesystem::path& file, MeshReport* report,
     fail(what, fmt::format("invalid scale {} (must be finite and positive)", options.scale));
   }
   MeshReport local;
-  std::error_code ec;
-  if (std::filesystem::is_directory(file, ec))
-    fail(what, "is a directory, not a mesh file (STL, OBJ or PLY)");
+  // What the path names first (a folder or FIFO is named as such, whatever its extension).
+  (void)io::require_regular_file(file, "mesh", kMaxMeshFileBytes);
   const Format format = format_of(file, what);
   const std::string bytes = read_bytes(file, what);
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <utility>
 
 #include "cariesim/common/error.hpp"
 
@@ -87,19 +88,34 @@ std::uintmax_t require_regular_file(const std::filesystem::path& path, std::stri
   return static_cast<std::uintmax_t>(st.st_size);
 }
 
-std::string read_file(const std::filesystem::path& path, std::string_view what, std::uintmax_t max_bytes) {
-  // Open without blocking (a FIFO with no writer would block here), then check what was opened.
-  Descriptor file{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY)};
-  if (file.fd < 0) {
+namespace {
+
+// Opens `path` for reading without blocking (a FIFO with no writer would block in open) and checks
+// what was opened on its descriptor, so nothing can swap the file between the check and the read.
+// Returns the descriptor and the size seen.
+std::pair<int, std::uintmax_t> open_regular(const std::filesystem::path& path, std::string_view what,
+                                            std::uintmax_t max_bytes) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) {
     const int error = errno;
     fail(path, what, error == ENOENT ? "file not found" : std::string("cannot open: ") + std::strerror(error));
   }
+  Descriptor owner{fd};
   struct stat st {};
-  if (::fstat(file.fd, &st) != 0) fail(path, what, std::string("cannot read: ") + std::strerror(errno));
+  if (::fstat(fd, &st) != 0) fail(path, what, std::string("cannot read: ") + std::strerror(errno));
   check_stat(path, what, st, max_bytes);
+  owner.fd = -1;
+  return {fd, static_cast<std::uintmax_t>(st.st_size)};
+}
+
+}  // namespace
+
+std::string read_file(const std::filesystem::path& path, std::string_view what, std::uintmax_t max_bytes) {
+  const auto [fd, size] = open_regular(path, what, max_bytes);
+  Descriptor file{fd};
 
   // Read up to one byte past the size seen, so a file that grows meanwhile is still bounded.
-  std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+  std::string bytes(static_cast<std::size_t>(size), '\0');
   std::size_t done = 0;
   for (;;) {
     if (done == bytes.size()) {
@@ -121,6 +137,77 @@ std::string read_file(const std::filesystem::path& path, std::string_view what, 
   }
   bytes.resize(done);
   return bytes;
+}
+
+// The line reader: one buffer of 64 KiB (or the line bound, if larger) refilled as lines are taken.
+LineReader::LineReader(const std::filesystem::path& path, std::string_view what, std::uintmax_t max_bytes,
+                       std::size_t max_line)
+    : path_(path), what_(what), max_bytes_(max_bytes), max_line_(max_line) {
+  fd_ = open_regular(path, what, max_bytes).first;
+  buffer_.resize(std::max<std::size_t>(std::size_t{1} << 16, max_line_ + 1));
+}
+
+LineReader::~LineReader() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+bool LineReader::fill() {
+  if (eof_) return false;
+  // Keep the unread part at the front, then read after it.
+  if (begin_ > 0) {
+    std::copy(buffer_.begin() + static_cast<std::ptrdiff_t>(begin_),
+              buffer_.begin() + static_cast<std::ptrdiff_t>(end_), buffer_.begin());
+    end_ -= begin_;
+    begin_ = 0;
+  }
+  for (;;) {
+    const ssize_t n = ::read(fd_, buffer_.data() + end_, buffer_.size() - end_);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail(path_, what_, std::string("read failed: ") + std::strerror(errno));
+    }
+    if (n == 0) {
+      eof_ = true;
+      return false;
+    }
+    read_ += static_cast<std::uintmax_t>(n);
+    if (read_ > max_bytes_)
+      fail(path_, what_, "grew past " + std::to_string(max_bytes_) + " bytes while being read");
+    end_ += static_cast<std::size_t>(n);
+    return true;
+  }
+}
+
+bool LineReader::next(std::string& line) {
+  std::size_t scanned = begin_;
+  for (;;) {
+    // A complete line in the buffer: hand it out.
+    const auto first = buffer_.begin() + static_cast<std::ptrdiff_t>(scanned);
+    const auto last = buffer_.begin() + static_cast<std::ptrdiff_t>(end_);
+    const auto newline = std::find(first, last, '\n');
+    const std::size_t length = static_cast<std::size_t>(newline - buffer_.begin()) - begin_;
+    if (length > max_line_)
+      fail(path_, what_,
+           "line " + std::to_string(line_number_ + 1) + " is longer than " + std::to_string(max_line_) +
+               " bytes");
+    if (newline != last) {
+      line.assign(buffer_.data() + begin_, length);
+      begin_ += length + 1;
+      ++line_number_;
+      return true;
+    }
+    // None yet: read more, or end with the unterminated last line.
+    scanned = end_;
+    const std::size_t kept = begin_;
+    if (!fill()) {
+      if (begin_ == end_) return false;
+      line.assign(buffer_.data() + begin_, end_ - begin_);
+      begin_ = end_;
+      ++line_number_;
+      return true;
+    }
+    scanned -= kept;  // fill() moved the unread part to the front
+  }
 }
 
 }  // namespace cariesim::io

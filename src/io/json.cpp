@@ -1,5 +1,6 @@
 #include "cariesim/io/json.hpp"
 
+#include <boost/locale/utf.hpp>
 #include <cmath>
 #include <cstdio>
 
@@ -79,9 +80,32 @@ JsonWriter& JsonWriter::value(std::string_view v) {
   return *this;
 }
 
+// A JSON string: '"', '\\' and every control character escaped, valid UTF-8 kept as it is, and each
+// invalid sequence (a stray or truncated byte, an overlong form, a surrogate, past U+10FFFF) replaced
+// by U+FFFD, so the output is always valid JSON (RFC 8259 §8.1) whatever a name or file held.
 void JsonWriter::write_string(std::string_view v) {
+  using Utf8 = boost::locale::utf::utf_traits<char>;
   out_ += '"';
-  for (const char c : v) {
+  const char* p = v.data();
+  const char* const end = v.data() + v.size();
+  while (p < end) {
+    const char c = *p;
+    if (static_cast<unsigned char>(c) >= 0x80) {
+      // Boost.Locale's decoder checks the whole sequence; on a failure one U+FFFD stands for the
+      // lead byte and the continuation bytes it announced (a stray continuation byte is one alone).
+      const char* q = p;
+      const boost::locale::utf::code_point cp = Utf8::decode(q, end);
+      if (cp != boost::locale::utf::illegal && cp != boost::locale::utf::incomplete) {
+        out_.append(p, q);
+        p = q;
+      } else {
+        out_ += "\xEF\xBF\xBD";
+        const int announced = Utf8::trail_length(*p++);
+        for (int i = 0; i < announced && p < end && Utf8::is_trail(*p); ++i) ++p;
+      }
+      continue;
+    }
+    ++p;
     switch (c) {
       case '"': out_ += "\\\""; break;
       case '\\': out_ += "\\\\"; break;
@@ -89,9 +113,9 @@ void JsonWriter::write_string(std::string_view v) {
       case '\t': out_ += "\\t"; break;
       case '\r': out_ += "\\r"; break;
       default:
-        if (static_cast<unsigned char>(c) < 0x20) {
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
           char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
           out_ += buf;
         } else {
           out_ += c;

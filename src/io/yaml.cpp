@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <vector>
 
 namespace cariesim::io {
 namespace {
@@ -45,7 +46,86 @@ std::string describe(const YAML::Node& node) {
   return fmt::format("'{}'", value);
 }
 
+// How many ancestors of a node are compared with it to name an alias inside its own anchor at once
+// (a longer cycle is still stopped by kMaxYamlNodes).
+constexpr std::size_t kCycleLookBack = 64;
+
+// Walks the node graph with every alias expanded, counting nodes: refuses more than kMaxYamlNodes
+// and an alias that names a node containing it. The walk keeps its own stack: aliases of aliases
+// nest deeper than the text does.
+void check_expansion(const Reader& r, const YAML::Node& root) {
+  struct Frame {
+    YAML::Node node;
+    YAML::const_iterator next, end;
+  };
+  std::vector<Frame> path;
+  std::uint64_t count = 1;
+  const auto enter = [&](const YAML::Node& node) {
+    if (!node.IsSequence() && !node.IsMap()) return;
+    const std::size_t first = path.size() > kCycleLookBack ? path.size() - kCycleLookBack : 0;
+    for (std::size_t i = first; i < path.size(); ++i)
+      if (path[i].node.is(node))
+        r.fail(node, "", "an alias names a node that contains it (an endless document)");
+    path.push_back(Frame{node, node.begin(), node.end()});
+  };
+  enter(root);
+  std::vector<YAML::Node> children;
+  while (!path.empty()) {
+    Frame& frame = path.back();
+    if (frame.next == frame.end) {
+      path.pop_back();
+      continue;
+    }
+    children.clear();
+    if (frame.node.IsMap()) {
+      children.push_back(frame.next->first);
+      children.push_back(frame.next->second);
+    } else {
+      children.push_back(*frame.next);
+    }
+    ++frame.next;
+    for (const YAML::Node& child : children) {
+      if (++count > kMaxYamlNodes)
+        r.fail(child, "",
+               fmt::format("the document expands to more than {} nodes through its aliases (a YAML bomb?)",
+                           kMaxYamlNodes));
+      enter(child);
+    }
+  }
+}
+
 }  // namespace
+
+YAML::Node parse_document(std::string_view text, const std::string& origin, std::uintmax_t max_bytes) {
+  const Reader r(origin);
+  if (text.size() > max_bytes)
+    throw Error(fmt::format("{}: too large ({} bytes, at most {})", origin, text.size(), max_bytes));
+  // Syntax (and yaml-cpp's nesting bound): yaml-cpp's own errors, located.
+  std::vector<YAML::Node> documents;
+  try {
+    documents = YAML::LoadAll(std::string(text));
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: YAML syntax error: {}", r.where(e.mark), e.msg));
+  }
+  if (documents.empty()) return YAML::Node(YAML::NodeType::Null);
+  if (documents.size() > 1)
+    r.fail(documents[1], "", "a second YAML document (after `---`): a file holds exactly one");
+  check_expansion(r, documents.front());
+  return documents.front();
+}
+
+NamedText builtin_or_file(const std::string& name_or_file, std::string_view what, std::string_view builtin,
+                          const std::vector<std::string>& names, std::uintmax_t max_bytes) {
+  if (!builtin.empty()) return NamedText{std::string(builtin), "builtin:" + name_or_file, true};
+  // Not a built-in: a file, which must be there (else the built-ins are listed).
+  if (file_kind(name_or_file) == FileKind::Missing) {
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+    throw Error(
+        fmt::format("{}: no such {} file, and not a built-in {} ({})", name_or_file, what, what, list));
+  }
+  return NamedText{read_file(name_or_file, what, max_bytes), name_or_file, false};
+}
 
 std::string Reader::where(const YAML::Mark& mark) const {
   if (mark.is_null() || mark.line < 0 || mark.column < 0) return fmt::format("{}:1:1", file_);

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/csv.hpp"
 #include "cariesim/io/sqlite.hpp"
 #include "cariesim/io/staged_folder.hpp"
 #include "cariesim/record/recorder.hpp"
@@ -84,110 +85,36 @@ RecordedEvent read_event(const Statement& row) {
 constexpr const char* kSelectEvents =
     "SELECT t, kind, detail, value, lesion, duration FROM events ORDER BY t, id";
 
-// Text fields are quoted when they hold a separator, a quote or a line break (RFC 4180).
-void put_text(fmt::memory_buffer& out, const std::string& text) {
-  if (text.find_first_of(",\"\r\n") == std::string::npos) {
-    out.append(text);
-    return;
-  }
-  out.push_back('"');
-  for (const char c : text) {
-    if (c == '"') out.push_back('"');
-    out.push_back(c);
-  }
-  out.push_back('"');
-}
-
-// Numbers in their shortest exact form (they read back bit for bit); NaN as "nan".
-template <typename T>
-void put_number(fmt::memory_buffer& out, T value) {
-  fmt::format_to(std::back_inserter(out), "{}", value);
-}
-
-// A CSV file written through a buffer; every failure names the file.
-class CsvFile {
- public:
-  explicit CsvFile(const fs::path& path) : path_(path), file_(std::fopen(path.c_str(), "wb")) {
-    if (!file_) throw Error(path.string() + ": cannot write");
-  }
-  ~CsvFile() {
-    if (file_) std::fclose(file_);
-  }
-  CsvFile(const CsvFile&) = delete;
-  CsvFile& operator=(const CsvFile&) = delete;
-  fmt::memory_buffer& buffer() { return buffer_; }
-  // Ends the row; flushes the buffer when it is large.
-  void end_row() {
-    buffer_.push_back('\n');
-    if (buffer_.size() > (1u << 16)) flush();
-  }
-  void flush() {
-    if (buffer_.size() > 0 && std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size())
-      throw Error(path_.string() + ": write failed");
-    buffer_.clear();
-  }
-  void close() {
-    flush();
-    const int rc = std::fclose(file_);
-    file_ = nullptr;
-    if (rc != 0) throw Error(path_.string() + ": write failed");
-  }
-
- private:
-  fs::path path_;
-  std::FILE* file_;
-  fmt::memory_buffer buffer_;
-};
-
-void write_header(CsvFile& csv, const char* const* names, std::size_t count) {
-  for (std::size_t i = 0; i < count; ++i) {
-    if (i > 0) csv.buffer().push_back(',');
-    csv.buffer().append(std::string_view(names[i]));
-  }
+// The column keys of a table as the header row.
+template <std::size_t N>
+void write_header(io::CsvWriter& csv, const std::array<const char*, N>& names) {
+  for (const char* name : names) csv.text(name);
   csv.end_row();
 }
 
-// One samples.csv row: the table's columns with the state by name.
-void put_sample(fmt::memory_buffer& b, const ServoSample& s) {
-  const auto next = [&b](auto value) {
-    b.push_back(',');
-    put_number(b, value);
-  };
-  put_number(b, s.t);
+// One samples.csv row: the table's columns with the state by name. Numbers in their shortest exact
+// form (they read back bit for bit).
+void put_sample(io::CsvWriter& csv, const ServoSample& s) {
+  csv.number(s.t);
   for (const Pose* pose : {&s.haptic, &s.graphic}) {
-    for (int k = 0; k < 3; ++k) next(pose->p[k]);
-    next(pose->q.w());
-    next(pose->q.x());
-    next(pose->q.y());
-    next(pose->q.z());
+    for (int k = 0; k < 3; ++k) csv.number(pose->p[k]);
+    csv.number(pose->q.w()).number(pose->q.x()).number(pose->q.y()).number(pose->q.z());
   }
-  for (int k = 0; k < 3; ++k) next(s.force[k]);
-  for (int k = 0; k < 3; ++k) next(s.torque[k]);
-  b.push_back(',');
-  b.append(std::string_view(state_name(s.state)));
-  next(s.depth);
-  next(static_cast<unsigned>(s.contacts));
-  next(s.step_us);
-  next(static_cast<int>(s.lesion));
-  next(s.soft_tissue_force);
-  next(s.step_flags);
-  next(s.safety_flags);
-  next(s.overrun ? 1 : 0);
-  next(s.buttons);
+  for (int k = 0; k < 3; ++k) csv.number(s.force[k]);
+  for (int k = 0; k < 3; ++k) csv.number(s.torque[k]);
+  csv.text(state_name(s.state));
+  csv.number(s.depth).integer(s.contacts).number(s.step_us).integer(s.lesion);
+  csv.number(s.soft_tissue_force).integer(s.step_flags).integer(s.safety_flags).integer(s.overrun ? 1 : 0);
+  csv.integer(s.buttons);
+  csv.end_row();
 }
 
 // One trajectory.csv row: time and haptic pose.
-void put_trajectory_row(fmt::memory_buffer& b, double t, const Pose& h) {
-  const auto next = [&b](double value) {
-    b.push_back(',');
-    put_number(b, value);
-  };
-  put_number(b, t);
-  for (int k = 0; k < 3; ++k) next(h.p[k]);
-  next(h.q.w());
-  next(h.q.x());
-  next(h.q.y());
-  next(h.q.z());
+void put_trajectory_row(io::CsvWriter& csv, double t, const Pose& h) {
+  csv.number(t);
+  for (int k = 0; k < 3; ++k) csv.number(h.p[k]);
+  csv.number(h.q.w()).number(h.q.x()).number(h.q.y()).number(h.q.z());
+  csv.end_row();
 }
 
 }  // namespace
@@ -248,32 +175,13 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
 
   // session.csv: a header and one row.
   {
-    CsvFile csv(dir / "session.csv");
-    fmt::memory_buffer& b = csv.buffer();
-    b.append(
-        std::string_view("scene,scene_hash,device,rate_hz,version,parameters,started_at,ended_at,batch_"
-                         "seconds,soft_tissue_threshold"));
-    csv.end_row();
+    io::CsvWriter csv(dir / "session.csv");
+    csv.header({"scene", "scene_hash", "device", "rate_hz", "version", "parameters", "started_at", "ended_at",
+                "batch_seconds", "soft_tissue_threshold"});
     const SessionInfo& info = session.info;
-    put_text(b, info.scene);
-    b.push_back(',');
-    b.append(record::hash_to_hex(info.scene_hash));
-    b.push_back(',');
-    put_text(b, info.device);
-    b.push_back(',');
-    put_number(b, info.rate_hz);
-    b.push_back(',');
-    put_text(b, info.version);
-    b.push_back(',');
-    put_text(b, info.parameters);
-    b.push_back(',');
-    put_text(b, info.started_at);
-    b.push_back(',');
-    put_text(b, info.ended_at);
-    b.push_back(',');
-    put_number(b, session.batch_seconds);
-    b.push_back(',');
-    put_number(b, session.soft_tissue_threshold);
+    csv.text(info.scene).text(record::hash_to_hex(info.scene_hash)).text(info.device).number(info.rate_hz);
+    csv.text(info.version).text(info.parameters).text(info.started_at).text(info.ended_at);
+    csv.number(session.batch_seconds).number(session.soft_tissue_threshold);
     csv.end_row();
     csv.close();
     summary.files.push_back(dir / "session.csv");
@@ -282,24 +190,21 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
   // samples.csv and trajectory.csv in one pass; the trajectory keeps the rows `cariesim sim` accepts
   // (finite pose, non-zero quaternion, increasing time).
   {
-    CsvFile samples(dir / "samples.csv");
-    CsvFile trajectory(dir / "trajectory.csv");
-    write_header(samples, record::kSampleColumns.data(), record::kSampleColumns.size());
-    trajectory.buffer().append(std::string_view("t,px,py,pz,qw,qx,qy,qz"));
-    trajectory.end_row();
+    io::CsvWriter samples(dir / "samples.csv");
+    io::CsvWriter trajectory(dir / "trajectory.csv");
+    write_header(samples, record::kSampleColumns);
+    trajectory.header({"t", "px", "py", "pz", "qw", "qx", "qy", "qz"});
     Statement rows(*db, record::select_samples_sql());
     double last_t = -std::numeric_limits<double>::infinity();
     int rc = SQLITE_ROW;
     while ((rc = rows.step()) == SQLITE_ROW) {
       const ServoSample s = record::read_sample(rows);
-      put_sample(samples.buffer(), s);
-      samples.end_row();
+      put_sample(samples, s);
       ++summary.samples;
       const Pose& h = s.haptic;
       if (std::isfinite(s.t) && s.t > last_t && h.p.allFinite() && h.q.coeffs().allFinite() &&
           h.q.squaredNorm() > 1e-12) {
-        put_trajectory_row(trajectory.buffer(), s.t, h);
-        trajectory.end_row();
+        put_trajectory_row(trajectory, s.t, h);
         last_t = s.t;
         ++summary.trajectory_rows;
       }
@@ -313,24 +218,13 @@ ExportSummary export_recording_csv(const fs::path& file, const fs::path& out_dir
 
   // events.csv, by start time.
   {
-    CsvFile csv(dir / "events.csv");
-    write_header(csv, record::kEventColumns.data(), record::kEventColumns.size());
+    io::CsvWriter csv(dir / "events.csv");
+    write_header(csv, record::kEventColumns);
     Statement rows(*db, kSelectEvents);
     int rc = SQLITE_ROW;
     while ((rc = rows.step()) == SQLITE_ROW) {
       const RecordedEvent e = read_event(rows);
-      fmt::memory_buffer& b = csv.buffer();
-      put_number(b, e.t);
-      b.push_back(',');
-      put_text(b, e.kind);
-      b.push_back(',');
-      put_text(b, e.detail);
-      b.push_back(',');
-      put_number(b, e.value);
-      b.push_back(',');
-      put_number(b, e.lesion);
-      b.push_back(',');
-      put_number(b, e.duration);
+      csv.number(e.t).text(e.kind).text(e.detail).number(e.value).integer(e.lesion).number(e.duration);
       csv.end_row();
       ++summary.events;
     }

@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iterator>
 #include <limits>
 #include <optional>
@@ -19,6 +18,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/io/file.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "cariesim/spheretree/level_set.hpp"
@@ -45,10 +45,9 @@ std::string lesion_context(const LesionDesc& l) {
   return fmt::format("{}: lesion '{}'", l.where.str(), l.name);
 }
 
-// The whole content of a file (mesh bytes for the cache key).
+// The whole content of a mesh file (its bytes go into the cache key), bounded like load_mesh's read.
 std::string file_bytes(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  return io::read_file(file, "mesh", kMaxMeshFileBytes);
 }
 
 // An object's surface in its own frame: the mesh file or the procedural generator.

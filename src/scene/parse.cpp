@@ -5,18 +5,18 @@
 
 #include <cctype>
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <set>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/io/file.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "cariesim/io/yaml.hpp"
 
 namespace cariesim {
 
@@ -91,11 +91,14 @@ ShapeDesc read_shape(const Reader& r, const YAML::Node& node, const std::string&
       }
       const std::filesystem::path base = in_data ? data_directory() : base_dir;
       s.file = (given.is_absolute() ? given : base / given).lexically_normal();
-      std::error_code ec;
-      if (std::filesystem::is_directory(s.file, ec)) {
-        r.fail(file, f.sub("file"), fmt::format("{} is a directory, not a mesh file", s.file.string()));
+      // A regular file: a folder, FIFO or device is named by its kind (reading one would fail or block).
+      const io::FileKind kind = io::file_kind(s.file);
+      if (kind != io::FileKind::Missing && kind != io::FileKind::Regular) {
+        r.fail(
+            file, f.sub("file"),
+            fmt::format("{}: not a regular file ({}), not a mesh file", s.file.string(), io::describe(kind)));
       }
-      if (!std::filesystem::is_regular_file(s.file, ec)) {
+      if (kind == io::FileKind::Missing) {
         r.fail(file, f.sub("file"),
                in_data ? fmt::format("mesh file not found: {} ('{}' in the data folder {}; set "
                                      "CARIESIM_DATA_DIR to the repository's data/ folder)",
@@ -640,13 +643,8 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
   scene.origin = origin.string();
   scene.source_hash = BuildKey().add(yaml).value();
 
-  // Syntax: yaml-cpp's own errors, located.
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: YAML syntax error: {}", r.where(e.mark), e.msg));
-  }
+  // One strict document (size, syntax, aliases: io::parse_document).
+  const YAML::Node root = io::parse_document(yaml, origin.string());
 
   try {
     const Fields f(
@@ -692,9 +690,7 @@ SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin
 }
 
 SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(mesh, ec))
-    throw Error(fmt::format("{}: no such mesh file", mesh.string()));
+  (void)io::require_regular_file(mesh, "mesh", kMaxMeshFileBytes);
   SceneDesc scene;
   scene.name = mesh.stem().string();
   scene.origin = mesh.string();
@@ -711,21 +707,9 @@ SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree) {
 
 SceneDesc load_scene(const std::string& name_or_file) {
   // A built-in scene by name, else a file.
-  if (const std::string_view yaml = builtin_scene_yaml(name_or_file); !yaml.empty()) {
-    return parse_scene(yaml, "builtin:" + name_or_file);
-  }
-  const std::filesystem::path file(name_or_file);
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) {
-    std::string names;
-    for (const auto& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
-    throw Error(fmt::format("{}: no such scene file, and not a built-in scene ({})", name_or_file, names));
-  }
-  std::ifstream in(file, std::ios::binary);
-  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the file", name_or_file));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_scene(text.str(), file);
+  const io::NamedText source =
+      io::builtin_or_file(name_or_file, "scene", builtin_scene_yaml(name_or_file), builtin_scene_names());
+  return parse_scene(source.text, source.origin);
 }
 
 }  // namespace cariesim

@@ -6,9 +6,9 @@
 
 #include <cmath>
 #include <fstream>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {
@@ -59,27 +59,12 @@ void set_material(YAML::Node lesion, const Material& m) {
   lesion["material"] = mat;
 }
 
-// The whole text of a file; throws naming it.
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 }  // namespace
 
 std::string set_lesion_materials(std::string_view yaml, const std::filesystem::path& origin,
                                  const std::vector<LesionMaterialEdit>& edits) {
-  // Parse the document as it is.
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}:{}:{}: not valid YAML: {}", origin.string(), e.mark.line + 1,
-                            e.mark.column + 1, e.msg));
-  }
+  // Parse the document as it is (one strict document: io::parse_document).
+  YAML::Node root = io::parse_document(yaml, origin.string());
   const YAML::Node lesions = root.IsMap() ? root["lesions"] : YAML::Node();
   // Each edit goes to the lesion of its name.
   for (const LesionMaterialEdit& edit : edits) {
@@ -106,10 +91,10 @@ std::string set_lesion_materials(std::string_view yaml, const std::filesystem::p
 std::filesystem::path save_lesion_materials(const std::string& source, const std::filesystem::path& target,
                                             const std::vector<LesionMaterialEdit>& edits) {
   // The source text: a built-in scene or a file.
-  const std::string_view builtin = builtin_scene_yaml(source);
-  const std::string text = builtin.empty() ? read_text(source) : std::string(builtin);
-  const std::filesystem::path origin = builtin.empty() ? std::filesystem::path(source) : target;
-  const std::string edited = set_lesion_materials(text, origin, edits);
+  const io::NamedText text =
+      io::builtin_or_file(source, "scene", builtin_scene_yaml(source), builtin_scene_names());
+  const std::filesystem::path origin = text.builtin ? target : text.origin;
+  const std::string edited = set_lesion_materials(text.text, origin, edits);
 
   // Keep what `target` held as target.bak, then write through a temporary file and rename it.
   std::error_code ec;

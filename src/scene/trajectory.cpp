@@ -10,6 +10,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/udp_protocol.hpp"
+#include "cariesim/io/file.hpp"
 
 namespace cariesim {
 
@@ -126,18 +127,13 @@ Trajectory parse_trajectory_csv(std::string_view text, const std::string& origin
   return parser.finish();
 }
 
-// Read line by line: memory holds the trajectory, never the file's text as well.
+// Read line by line: memory holds the trajectory, never the file's text as well; the reader refuses
+// what is no regular file and bounds the file and each line.
 Trajectory load_trajectory_csv(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(file, ec))
-    throw Error(file.string() + ": is a directory, not a trajectory file (CSV t,px,py,pz,qw,qx,qy,qz)");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(file.string() + ": cannot open trajectory file");
+  io::LineReader in(file, "trajectory (CSV t,px,py,pz,qw,qx,qy,qz)", kMaxTrajectoryBytes);
   TrajectoryCsvParser parser(file.string());
   std::string line;
-  std::size_t line_no = 0;
-  while (std::getline(in, line)) parser.line(line, ++line_no);
-  if (in.bad()) throw Error(file.string() + ": read failed");
+  while (in.next(line)) parser.line(line, in.line_number());
   return parser.finish();
 }
 

@@ -31,6 +31,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "cariesim/common/error.hpp"
+#include "cariesim/io/file.hpp"
 #include "cariesim/spheretree/build.hpp"
 
 namespace cariesim {
@@ -61,6 +63,8 @@ struct StoredTangents {
 static_assert(sizeof(StoredTangents) == 28, "stored tangents are 28 bytes");
 
 constexpr char kMagic[8] = {'C', 'S', 'T', 'R', 'E', 'E', '\r', '\n'};
+// Bytes: the largest entry read back (a tree of the finest scan is tens of MB).
+constexpr std::uintmax_t kMaxEntryBytes = std::uintmax_t{1} << 30;
 
 // Appends raw bytes of values to a buffer.
 class Writer {
@@ -123,7 +127,7 @@ std::filesystem::path entry_path(const std::filesystem::path& dir, uint64_t key)
 }
 
 // Parses a whole file; returns false for anything unusable.
-bool parse(const std::vector<char>& bytes, uint64_t key, CachedPart& part) {
+bool parse(std::string_view bytes, uint64_t key, CachedPart& part) {
   constexpr std::size_t kChecksumSize = sizeof(uint64_t);
   if (bytes.size() < sizeof(kMagic) + kChecksumSize) return false;
   const std::size_t body = bytes.size() - kChecksumSize;
@@ -203,18 +207,14 @@ std::filesystem::path TreeCache::default_dir() {
 std::optional<CachedPart> TreeCache::load(uint64_t key) const {
   const std::filesystem::path path = entry_path(dir_, key);
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
-  std::vector<char> bytes;
-  {
-    std::ifstream file(path, std::ios::binary);
-    if (!file) return std::nullopt;
-    file.seekg(0, std::ios::end);
-    const std::streamoff size = file.tellg();
-    if (size < 0) return std::nullopt;
-    bytes.resize(static_cast<std::size_t>(size));
-    file.seekg(0, std::ios::beg);
-    file.read(bytes.data(), size);
-    if (!file) bytes.clear();
+  if (io::file_kind(path) == io::FileKind::Missing) return std::nullopt;
+  // A regular file of a bounded size (io::read_file); anything else there is passed over.
+  std::string bytes;
+  try {
+    bytes = io::read_file(path, "tree cache entry", kMaxEntryBytes);
+  } catch (const Error& e) {
+    spdlog::warn("tree cache: ignoring {}", e.what());
+    return std::nullopt;
   }
   CachedPart part;
   if (!parse(bytes, key, part)) {

@@ -6,12 +6,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/training/study.hpp"
+#include "cariesim/io/file.hpp"
 #include "cariesim/io/yaml.hpp"
+#include "cariesim/training/study.hpp"
 
 namespace cariesim::training {
 
@@ -66,13 +65,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
   Course course;
   course.file = origin;
 
-  // Syntax: yaml-cpp's own errors, located.
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: YAML syntax error: {}", r.where(e.mark), e.msg));
-  }
+  // One strict document (size, syntax, aliases: io::parse_document).
+  const YAML::Node root = io::parse_document(yaml, origin.string());
 
   try {
     const Fields f(r, root, "",
@@ -87,9 +81,12 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
         study.find('/') != std::string::npos || ends_with(study, ".yaml") || ends_with(study, ".yml");
     if (course.study_is_file) {
       const std::filesystem::path path = base / study;
-      std::error_code ec;
-      if (!std::filesystem::is_regular_file(path, ec))
+      if (const io::FileKind kind = io::file_kind(path); kind == io::FileKind::Missing)
         r.fail(f.get("study"), "study", fmt::format("study file not found: {}", path.string()));
+      else if (kind != io::FileKind::Regular)
+        r.fail(
+            f.get("study"), "study",
+            fmt::format("{}: not a regular file ({}), not a study file", path.string(), io::describe(kind)));
       course.study = path.string();
     } else {
       const std::vector<std::string> names = builtin_study_names();
@@ -134,14 +131,7 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
 }
 
 Course load_course(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec))
-    throw Error(fmt::format("{}: no such course file", file.string()));
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (!in && !in.eof()) throw Error(fmt::format("{}: cannot read the course file", file.string()));
-  return parse_course(text.str(), file);
+  return parse_course(io::read_file(file, "course"), file);
 }
 
 }  // namespace cariesim::training

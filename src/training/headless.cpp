@@ -8,16 +8,15 @@
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/file.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/servo/session.hpp"
 #include "cariesim/training/scores.hpp"
-#include "cariesim/io/yaml.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
@@ -129,12 +128,7 @@ void drive(Session& session, bool ends, double limit) {
 
 ScriptedAnswers parse_answers(std::string_view yaml, const fs::path& origin) {
   const Reader r(origin.string());
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: {}", r.where(e.mark), e.msg));
-  }
+  const YAML::Node root = io::parse_document(yaml, origin.string());
   if (!root.IsDefined() || root.IsNull()) throw Error(fmt::format("{}: empty answers file", origin.string()));
   const Fields f(r, root, "", {"format", "trials"});
   if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, f.sub("format"), 1, 1);
@@ -149,11 +143,7 @@ ScriptedAnswers parse_answers(std::string_view yaml, const fs::path& origin) {
 }
 
 ScriptedAnswers load_answers(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the answers file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_answers(text.str(), file);
+  return parse_answers(io::read_file(file, "answers"), file);
 }
 
 std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers,

@@ -9,13 +9,14 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
-#include <sstream>
 #include <string>
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
-#include "cariesim/io/staged_folder.hpp"
+#include "cariesim/io/csv.hpp"
+#include "cariesim/io/file.hpp"
 #include "cariesim/io/json.hpp"
+#include "cariesim/io/staged_folder.hpp"
 #include "cariesim/training/report.hpp"
 
 namespace cariesim::training {
@@ -63,45 +64,41 @@ void write_file(const fs::path& file, const std::string& text) {
   if (!out) throw Error(file.string() + ": cannot write");
 }
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (!in) throw Error(file.string() + ": cannot read the figure");
-  return text.str();
-}
+// Bytes: the largest figure (PNG) put into the page.
+constexpr std::uintmax_t kMaxFigureBytes = std::uintmax_t{64} << 20;
 
-// A number in full (shortest round-trip) precision; cells only hold finite numbers.
-std::string full(double v) { return std::isfinite(v) ? fmt::format("{}", v) : std::string(); }
-
-// CSV: RFC 4180 quoting where a field needs it; an empty cell for a value that does not exist.
-std::string csv_field(const Cell& cell) {
+// One cell through the CSV writer (io/csv.hpp: quoting, formula-leading text neutralised); an empty
+// cell for a value that does not exist. Numbers in full (shortest round-trip) precision.
+void csv_cell(io::CsvWriter& csv, const Cell& cell) {
   switch (cell.kind) {
-    case Cell::Kind::Text: {
-      if (cell.text.find_first_of(",\"\n\r") == std::string::npos) return cell.text;
-      std::string q = "\"";
-      for (char c : cell.text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-      return q + "\"";
-    }
+    case Cell::Kind::Text:
+      csv.text(cell.text);
+      return;
     case Cell::Kind::Integer:
-      return std::to_string(cell.integer);
+      csv.integer(cell.integer);
+      return;
     case Cell::Kind::Number:
-      return full(cell.number);
+      if (std::isfinite(cell.number)) {
+        csv.number(cell.number);
+        return;
+      }
+      break;
     case Cell::Kind::Empty:
       break;
   }
-  return {};
+  csv.empty();
 }
 
-std::string table_csv(const ReportTable& table) {
-  std::string out;
-  for (std::size_t c = 0; c < table.columns.size(); ++c) out += (c ? "," : "") + table.columns[c].key;
-  out += '\n';
+// NAME.csv: the column keys, then each row.
+void write_table_csv(const fs::path& file, const ReportTable& table) {
+  io::CsvWriter csv(file);
+  for (const Column& column : table.columns) csv.text(column.key);
+  csv.end_row();
   for (const std::vector<Cell>& row : table.rows) {
-    for (std::size_t c = 0; c < row.size(); ++c) out += (c ? "," : "") + csv_field(row[c]);
-    out += '\n';
+    for (const Cell& cell : row) csv_cell(csv, cell);
+    csv.end_row();
   }
-  return out;
+  csv.close();
 }
 
 void json_cell(io::JsonWriter& json, const Cell& cell) {
@@ -219,8 +216,8 @@ constexpr FigurePlace kFigurePlaces[] = {
 
 std::string figure_html(const fs::path& file, const char* caption) {
   return "<figure><img alt=\"" + html_escape(file.filename().string()) + "\" src=\"data:image/png;base64," +
-         base64_encode(read_file(file)) + "\"><figcaption>" + html_escape(caption) + " (" +
-         html_escape(file.filename().string()) + ")</figcaption></figure>\n";
+         base64_encode(io::read_file(file, "figure", kMaxFigureBytes)) + "\"><figcaption>" +
+         html_escape(caption) + " (" + html_escape(file.filename().string()) + ")</figcaption></figure>\n";
 }
 
 std::string report_html(const Report& report, const std::vector<fs::path>& figures,
@@ -309,7 +306,7 @@ ReportFiles write_report(const Report& report, const fs::path& out_dir, const Fi
   const std::string generated = utc_now_iso8601();
 
   // The tables as CSV, then the figures drawn from them, then JSON and HTML.
-  for (const ReportTable& table : report.tables) write_file(dir / (table.name + ".csv"), table_csv(table));
+  for (const ReportTable& table : report.tables) write_table_csv(dir / (table.name + ".csv"), table);
   std::vector<fs::path> figures;
   if (draw) {
     std::error_code ec;

@@ -6,15 +6,13 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include <fstream>
 #include <random>
 #include <set>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
-#include "cariesim/io/yaml.hpp"
 #include "training/builtin_studies.hpp"
 #include "training/draws.hpp"
 #include "training/study_schema.hpp"
@@ -354,12 +352,7 @@ bool parse_grade(std::string_view text, Grade& out) {
 
 Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   const Reader r(origin.string());
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: {}", r.where(e.mark), e.msg));
-  }
+  const YAML::Node root = io::parse_document(yaml, origin.string());
   if (!root.IsDefined() || root.IsNull()) throw Error(fmt::format("{}: empty study file", origin.string()));
   const Fields f(r, root, "",
                  {"name", "description", "format", "kind", "trials", "seed", "tuning", "boundary",
@@ -430,20 +423,9 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
 
 Study load_study(const std::string& name_or_file) {
   // A built-in study by name, else a file.
-  if (const std::string_view yaml = builtin_study_yaml(name_or_file); !yaml.empty())
-    return parse_study(yaml, "builtin:" + name_or_file);
-  const std::filesystem::path file(name_or_file);
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) {
-    std::string names;
-    for (const auto& n : builtin_study_names()) names += (names.empty() ? "" : ", ") + n;
-    throw Error(fmt::format("{}: no such study file, and not a built-in study ({})", name_or_file, names));
-  }
-  std::ifstream in(file, std::ios::binary);
-  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the file", name_or_file));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_study(text.str(), file);
+  const io::NamedText source =
+      io::builtin_or_file(name_or_file, "study", builtin_study_yaml(name_or_file), builtin_study_names());
+  return parse_study(source.text, source.origin);
 }
 
 std::vector<std::string> builtin_study_names() {

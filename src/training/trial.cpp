@@ -7,10 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/training/study.hpp"
 #include "training/draws.hpp"
@@ -22,13 +21,9 @@ namespace {
 
 // The text of a scene (built-in or file) and the origin parse_scene should name it by.
 std::pair<std::string, std::string> scene_text(const std::string& scene) {
-  if (const std::string_view yaml = builtin_scene_yaml(scene); !yaml.empty())
-    return {std::string(yaml), "builtin:" + scene};
-  std::ifstream in(scene, std::ios::binary);
-  if (!in.is_open()) throw Error(fmt::format("{}: cannot open the scene file", scene));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return {text.str(), scene};
+  io::NamedText source =
+      io::builtin_or_file(scene, "scene", builtin_scene_yaml(scene), builtin_scene_names());
+  return {std::move(source.text), source.origin.string()};
 }
 
 // "[x, y, z]" with the shortest exact decimal of each coordinate.
@@ -144,7 +139,7 @@ void make_diagnosis(const Study& study, Draws& draws, TrialSetup& t) {
   t.time_limit = d.time_limit;
 
   const auto [yaml, origin] = scene_text(d.scene);
-  YAML::Node root = YAML::Load(yaml);
+  YAML::Node root = io::parse_document(yaml, origin);
   YAML::Node lesions(YAML::NodeType::Sequence);
   for (std::size_t k = 0; k < t.truth.lesions.size(); ++k) {
     const CaseLesion& c = t.truth.lesions[k];

@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstring>
@@ -9,6 +10,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "geometry/mesh_test_util.hpp"
+#include "support/fifo.hpp"
 
 namespace cariesim {
 namespace {
@@ -70,11 +72,23 @@ TEST(LoadMesh, MissingFileIsNamed) {
   EXPECT_THAT(load_error(file), AllOf(HasSubstr("no_such_tooth.stl"), HasSubstr("not found")));
 }
 
+// Issue 26 item 13: a FIFO named like a mesh is refused by its kind, without blocking; /dev/zero too.
+TEST(LoadMesh, AFifoOrADeviceIsNamedByItsKind) {
+  const auto fifo = temp_dir() / ("pipe_" + std::to_string(::getpid()) + ".stl");
+  ASSERT_TRUE(test::make_fifo(fifo));
+  const test::FifoOutcome outcome = test::read_fifo(fifo, [fifo] { (void)load_mesh(fifo); });
+  std::filesystem::remove(fifo);
+  EXPECT_FALSE(outcome.blocked);
+  EXPECT_THAT(outcome.error, HasSubstr("mesh: not a regular file (a FIFO (named pipe))"));
+  EXPECT_THAT(load_error("/dev/zero"), HasSubstr("/dev/zero: mesh: not a regular file (a character device)"));
+}
+
 // Issue #14 item 9: a directory (here one named like a mesh) was "unsupported" or "not a regular file".
 TEST(LoadMesh, ADirectoryIsNamedAsSuch) {
   const auto dir = temp_dir() / "folder.stl";
   std::filesystem::create_directories(dir);
-  EXPECT_THAT(load_error(dir), AllOf(HasSubstr("folder.stl"), HasSubstr("is a directory, not a mesh file")));
+  EXPECT_THAT(load_error(dir),
+              AllOf(HasSubstr("folder.stl"), HasSubstr("mesh: not a regular file (a folder)")));
   std::filesystem::remove(dir);
 }
 

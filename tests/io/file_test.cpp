@@ -10,6 +10,7 @@
 #include <string>
 
 #include "cariesim/common/error.hpp"
+#include "support/fifo.hpp"
 
 namespace cariesim::io {
 namespace {
@@ -72,6 +73,68 @@ TEST_F(FileTest, AFileOverItsBoundIsRefusedWithItsSize) {
   const std::string m = message([&] { read_file(p, "trajectory", 999); });
   EXPECT_NE(m.find("too large (1000 bytes, at most 999)"), std::string::npos) << m;
   EXPECT_EQ(read_file(p, "trajectory", 1000).size(), 1000u);
+}
+
+// LineReader: the lines of a regular file, the last one without '\n', CR kept as getline keeps it.
+TEST_F(FileTest, LineReaderGivesEveryLineWithItsNumber) {
+  const fs::path p = write("t.csv", "t,px\r\n\n0,1\nlast");
+  LineReader in(p, "trajectory");
+  std::string line;
+  ASSERT_TRUE(in.next(line));
+  EXPECT_EQ(line, "t,px\r");
+  ASSERT_TRUE(in.next(line));
+  EXPECT_EQ(line, "");
+  ASSERT_TRUE(in.next(line));
+  EXPECT_EQ(line, "0,1");
+  ASSERT_TRUE(in.next(line));
+  EXPECT_EQ(line, "last");
+  EXPECT_EQ(in.line_number(), 4u);
+  EXPECT_FALSE(in.next(line));
+  // Lines longer than the buffer's 64 KiB come whole.
+  const std::string long_line(200000, 'x');
+  LineReader big(write("big.csv", "a\n" + long_line + "\nb\n"), "trajectory");
+  ASSERT_TRUE(big.next(line));
+  ASSERT_TRUE(big.next(line));
+  EXPECT_EQ(line, long_line);
+  ASSERT_TRUE(big.next(line));
+  EXPECT_EQ(line, "b");
+  EXPECT_FALSE(big.next(line));
+}
+
+// Issue 26 item 15: a FIFO, /dev/zero or a folder as a streamed input (a trajectory) is refused
+// when it is opened, naming its kind, and nothing is read.
+TEST_F(FileTest, LineReaderRefusesWhatIsNoRegularFile) {
+  const fs::path fifo = dir_ / "pipe.csv";
+  ASSERT_TRUE(test::make_fifo(fifo));
+  const test::FifoOutcome outcome = test::read_fifo(fifo, [fifo] { LineReader in(fifo, "trajectory"); });
+  EXPECT_FALSE(outcome.blocked);
+  EXPECT_NE(outcome.error.find("not a regular file (a FIFO (named pipe))"), std::string::npos)
+      << outcome.error;
+  EXPECT_NE(message([] { LineReader in("/dev/zero", "trajectory"); }).find("(a character device)"),
+            std::string::npos);
+  EXPECT_NE(message([&] { LineReader in(dir_, "trajectory"); }).find("(a folder)"), std::string::npos);
+}
+
+// The bounds: a file over its size, and a line over its length, named with the line's number.
+TEST_F(FileTest, LineReaderBoundsTheFileAndEachLine) {
+  const fs::path p = write("t.csv", "ab\n" + std::string(100, 'y') + "\n");
+  std::string m = message([&] { LineReader in(p, "trajectory", 50); });
+  EXPECT_NE(m.find("too large (104 bytes, at most 50)"), std::string::npos) << m;
+  m = message([&] {
+    LineReader in(p, "trajectory", kMaxTextBytes, 64);
+    std::string line;
+    while (in.next(line)) {
+    }
+  });
+  EXPECT_NE(m.find(p.string() + ": trajectory: line 2 is longer than 64 bytes"), std::string::npos) << m;
+  // A last line without '\n' is bounded too.
+  m = message([&] {
+    LineReader in(write("tail.csv", std::string(100, 'z')), "trajectory", kMaxTextBytes, 64);
+    std::string line;
+    while (in.next(line)) {
+    }
+  });
+  EXPECT_NE(m.find("line 1 is longer than 64 bytes"), std::string::npos) << m;
 }
 
 }  // namespace

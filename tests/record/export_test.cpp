@@ -259,6 +259,40 @@ TEST(Export, RoundTripsEveryField) {
   EXPECT_LT((trajectory.pose[800].p - stream[801].haptic.p).norm(), 1e-12);
 }
 
+// Issue 26 item 7: text from a recording (a scene name, a device spec, an event's detail) that a
+// spreadsheet would run as a formula went into the CSV as it was. It is neutralised with a leading
+// quote; numbers are not (a negative value stays a number).
+TEST(Export, FormulaLeadingTextIsNeutralised) {
+  test::ScratchDir dir("export_formula");
+  const auto file = dir / "session.db";
+  SessionInfo info = test::synthetic_session(1000.0);
+  info.scene = "=HYPERLINK(\"http://x\",\"y\")";
+  info.device = "-2+3";
+  {
+    Recorder recorder(file, info);
+    recorder.start();
+    recorder.record_event({0.5, "param", "@SUM(A1:A9)", -0.25, 1, 0.0});
+    for (std::size_t i = 0; i < 10; ++i)
+      while (!recorder.queue().push(test::synthetic_sample(i, 1000.0))) std::this_thread::yield();
+    recorder.stop();
+    ASSERT_TRUE(recorder.status().ok) << recorder.status().message;
+  }
+  const auto out = dir / "csv";
+  export_recording_csv(file, out);
+  const Table session = read_csv(out / "session.csv");
+  ASSERT_EQ(session.size(), 2u);
+  EXPECT_EQ(session[1][0], "'=HYPERLINK(\"http://x\",\"y\")");
+  EXPECT_EQ(session[1][2], "'-2+3");
+  bool seen = false;
+  for (const auto& row : read_csv(out / "events.csv"))
+    if (row[1] == "param") {
+      EXPECT_EQ(row[2], "'@SUM(A1:A9)");
+      EXPECT_EQ(row[3], "-0.25");
+      seen = true;
+    }
+  EXPECT_TRUE(seen);
+}
+
 TEST(Export, UnreadableInputsThrowNamingTheFile) {
   test::ScratchDir dir("export_errors");
   const auto missing = dir / "missing.db";

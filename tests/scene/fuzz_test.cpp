@@ -115,7 +115,8 @@ TEST(SceneParserFuzz, Issue14InputsAreRefusedWhereTheyAre) {
       {block + "servo_rate: .nan\n", "fuzz.yaml:4:13: servo_rate"},
       {"objects:\n  - name: b\n    shape: {type: cuboid, size: [1e-6, 1, 1]}\n", "edge 1e-06 mm is below"},
       {"objects:\n  - name: b\n    shape: {type: cuboid, size: [0.02, 4, 4]}\n", "two level-set voxels"},
-      {"objects:\n  - name: b\n    shape: {type: mesh, file: .}\n", "is a directory, not a mesh file"},
+      {"objects:\n  - name: b\n    shape: {type: mesh, file: .}\n",
+       "not a regular file (a folder), not a mesh file"},
       {block + "lesions:\n  - {name: l, object: b, placement: {at: [0, 0, 2], normal: [0, 0, 1]},\n"
                "     shape: {type: disk, size: 1, depth: 0.5}, material: {mu_s: 0.1, mu_d: 0.9}}\n",
        ""},

@@ -1,10 +1,14 @@
 #include "cariesim/scene/trajectory.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "cariesim/common/error.hpp"
+#include "support/fifo.hpp"
 
 namespace cariesim {
 namespace {
@@ -68,9 +72,66 @@ TEST(Trajectory, ADirectoryIsNamedAsSuch) {
     load_trajectory_csv(dir);
     FAIL() << "a directory loaded as a trajectory";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("is a directory, not a trajectory file"), std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("trajectory (CSV t,px,py,pz,qw,qx,qy,qz): not a regular file (a folder)"),
+        std::string::npos)
         << e.what();
   }
+}
+
+// Issue 26 item 15: a FIFO as a trajectory (`sim --trajectory`, `--device scripted:FIFO`) blocked
+// forever; /dev/zero read over 1 GB before failing. Both are refused at once, naming their kind.
+TEST(Trajectory, AFifoOrADeviceIsRefusedWithoutReading) {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("cariesim_traj_fifo_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto fifo = dir / "path.csv";
+  ASSERT_TRUE(test::make_fifo(fifo));
+  const test::FifoOutcome outcome = test::read_fifo(fifo, [fifo] { (void)load_trajectory_csv(fifo); });
+  EXPECT_FALSE(outcome.blocked) << "load_trajectory_csv blocked on a FIFO";
+  EXPECT_NE(outcome.error.find("not a regular file (a FIFO (named pipe))"), std::string::npos)
+      << outcome.error;
+  try {
+    (void)load_trajectory_csv("/dev/zero");
+    FAIL() << "/dev/zero loaded as a trajectory";
+  } catch (const Error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("/dev/zero: trajectory (CSV t,px,py,pz,qw,qx,qy,qz): not a regular file "
+                                   "(a character device)"),
+        std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// Every text input is bounded: a trajectory file over kMaxTrajectoryBytes (a sparse file here) is
+// refused by its size before a byte is read, and a line of zeros by its length.
+TEST(Trajectory, TheFileAndItsLinesAreBounded) {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("cariesim_traj_big_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto big = dir / "big.csv";
+  std::ofstream(big) << "t,px,py,pz,qw,qx,qy,qz\n";
+  std::filesystem::resize_file(big, kMaxTrajectoryBytes + 1);
+  try {
+    (void)load_trajectory_csv(big);
+    FAIL() << "an oversized trajectory loaded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("too large (1073741825 bytes, at most 1073741824)"),
+              std::string::npos)
+        << e.what();
+  }
+  const auto zeros = dir / "zeros.csv";
+  std::ofstream(zeros) << "t,px,py,pz,qw,qx,qy,qz\n";
+  std::filesystem::resize_file(zeros, 8u << 20);
+  try {
+    (void)load_trajectory_csv(zeros);
+    FAIL() << "a line of 8 MB loaded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2 is longer than 1048576 bytes"), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Trajectory, CursorMatchesSample) {

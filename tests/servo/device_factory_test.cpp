@@ -12,6 +12,7 @@
 #include "cariesim/device/udp_device.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/record/replay.hpp"
+#include "support/fifo.hpp"
 
 namespace cariesim {
 namespace {
@@ -73,6 +74,29 @@ TEST(DeviceFactory, BadSpecsNameTheSpec) {
     }
   }
   std::filesystem::remove(bad_csv);
+}
+
+// Issue 26 item 15: `--device scripted:FIFO` blocked forever; /dev/zero read over 1 GB. Both are
+// refused at once, naming the spec and the file's kind.
+TEST(DeviceFactory, AScriptedFifoOrDeviceIsRefusedWithoutBlocking) {
+  const auto fifo =
+      std::filesystem::temp_directory_path() / ("cariesim_factory_fifo_" + std::to_string(::getpid()));
+  ASSERT_TRUE(test::make_fifo(fifo));
+  const test::FifoOutcome outcome =
+      test::read_fifo(fifo, [fifo] { (void)make_device("scripted:" + fifo.string()); });
+  std::filesystem::remove(fifo);
+  EXPECT_FALSE(outcome.blocked) << "scripted:FIFO blocked";
+  EXPECT_NE(outcome.error.find("device spec 'scripted:" + fifo.string() + "'"), std::string::npos)
+      << outcome.error;
+  EXPECT_NE(outcome.error.find("not a regular file (a FIFO (named pipe))"), std::string::npos)
+      << outcome.error;
+  try {
+    (void)make_device("scripted:/dev/zero");
+    FAIL() << "scripted:/dev/zero made a device";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file (a character device)"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(DeviceFactory, ReplayReachesTheRecordModule) {

@@ -146,7 +146,7 @@ TEST(Course, AMissingFileIsNamed) {
     (void)cariesim::training::load_course("/nonexistent/course.yaml");
     FAIL() << "a missing course file loads";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("/nonexistent/course.yaml: no such course file"));
+    EXPECT_THAT(e.what(), HasSubstr("/nonexistent/course.yaml: course: file not found"));
   }
 }
 

@@ -12,6 +12,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/training/scores.hpp"
+#include "support/fifo.hpp"
 #include "training/study_schema.hpp"
 #include "training/training_support.hpp"
 
@@ -162,6 +163,19 @@ TEST(Answers, ErrorsAreLocated) {
   EXPECT_NE(error("trials: []\n").find("at least one trial"), std::string::npos);
   EXPECT_NE(error("trials:\n  - marks: [{t: -1, grade: mild}]\n").find("a.yaml:2:17"), std::string::npos)
       << error("trials:\n  - marks: [{t: -1, grade: mild}]\n");
+}
+
+// Issue 26 item 15: `study run --answers FIFO` blocked forever. The answers file is refused naming
+// its kind.
+TEST(Answers, AFifoIsRefusedWithoutBlocking) {
+  const fs::path fifo = test::scratch() / "answers.yaml";
+  ASSERT_TRUE(cariesim::test::make_fifo(fifo));
+  const cariesim::test::FifoOutcome outcome =
+      cariesim::test::read_fifo(fifo, [fifo] { (void)load_answers(fifo); });
+  EXPECT_FALSE(outcome.blocked) << "load_answers blocked on a FIFO";
+  EXPECT_NE(outcome.error.find(fifo.string() + ": answers: not a regular file (a FIFO (named pipe))"),
+            std::string::npos)
+      << outcome.error;
 }
 
 TEST(Headless, AnswersThatDoNotFitTheTrialNameTheTrialAndTheEntry) {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "cariesim/common/error.hpp"
+#include "support/csv.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
 
@@ -505,6 +506,42 @@ TEST_F(ReportTest, AFailedWriteKeepsTheEarlierReport) {
   // A file in the way of the folder is an error naming it.
   std::ofstream(dir_ / "file") << "x";
   EXPECT_THROW(write_report(both, dir_ / "file", {}), Error);
+}
+
+// Issue 26 items 7 and 16: a name or level from a station database reaches the tables as it is.
+// A column key `evil,"x"\n=1+2` split the CSV header into three columns and put a formula on the
+// next line; a text cell "=1+2" ran as a formula in a spreadsheet; invalid UTF-8 made report.json
+// invalid JSON. The CSV keeps one field per key and cell (RFC 4180) with formula-leading text
+// neutralised (numbers untouched); report.json replaces invalid UTF-8 with U+FFFD.
+TEST_F(ReportTest, HostileNamesStayCellsAndReportJsonStaysJson) {
+  const std::string evil = "evil,\"x\"\n=1+2";
+  Report report;
+  ReportTable table;
+  table.name = "crafted";
+  table.title = "Crafted";
+  table.columns = {{"participant", "Participant", 0}, {evil, "Evil", 3}};
+  table.rows = {{Cell::of_text("=1+2"), Cell::of_number(-0.5)},
+                {Cell::of_text("@SUM(A1:A9)"), Cell::of_integer(-3)},
+                {Cell::of_text("bad\xFF\xFEname"), Cell::of_text("-cmd")}};
+  report.tables.push_back(table);
+  const fs::path out = dir_ / "out";
+  write_report(report, out, {});
+
+  const auto rows = test::parse_rfc4180(read_text(out / "crafted.csv"));
+  ASSERT_EQ(rows.size(), 4u) << read_text(out / "crafted.csv");
+  EXPECT_EQ(rows[0], (std::vector<std::string>{"participant", evil}));
+  EXPECT_EQ(rows[1], (std::vector<std::string>{"'=1+2", "-0.5"}));
+  EXPECT_EQ(rows[2], (std::vector<std::string>{"'@SUM(A1:A9)", "-3"}));
+  EXPECT_EQ(rows[3][1], "'-cmd");
+
+  const std::string json = read_text(out / "report.json");
+  EXPECT_EQ(json.find("\xFF"), std::string::npos);
+  EXPECT_THAT(json, HasSubstr("bad\xEF\xBF\xBD\xEF\xBF\xBDname"));
+  // Python's json module (strict UTF-8) reads it back.
+  const std::string check =
+      "/usr/bin/python3 -c 'import json,sys; json.load(open(sys.argv[1], encoding=\"utf-8\"))' '" +
+      (out / "report.json").string() + "'";
+  EXPECT_EQ(std::system(check.c_str()), 0) << "report.json is not valid JSON in UTF-8";
 }
 
 TEST(ReportBase64, Rfc4648Vectors) {

@@ -3,11 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "support/fifo.hpp"
 #include "training/training_support.hpp"
 
 namespace cariesim::training {
@@ -116,6 +119,29 @@ TEST(StudyParse, AMissingFileNamesTheBuiltins) {
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("boundary-shapes"), std::string::npos) << e.what();
+  }
+}
+
+// Issue 26 item 15: a FIFO as a study file (`study check`, `study run`, a course's study) is refused
+// naming its kind, without blocking; an oversized one (a sparse file here) by its size, unread.
+TEST(StudyParse, AFifoOrAnOversizedFileIsRefused) {
+  const auto dir = test::scratch();
+  ASSERT_TRUE(cariesim::test::make_fifo(dir / "study.yaml"));
+  const cariesim::test::FifoOutcome outcome = cariesim::test::read_fifo(
+      dir / "study.yaml", [dir] { (void)load_study((dir / "study.yaml").string()); });
+  EXPECT_FALSE(outcome.blocked) << "load_study blocked on a FIFO";
+  EXPECT_NE(outcome.error.find("study: not a regular file (a FIFO (named pipe))"), std::string::npos)
+      << outcome.error;
+  const auto big = dir / "big.yaml";
+  std::ofstream(big) << "kind: tuning\n";
+  std::filesystem::resize_file(big, (std::uintmax_t{64} << 20) + 1);
+  try {
+    (void)load_study(big.string());
+    FAIL() << "an oversized study loaded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("study: too large (67108865 bytes, at most 67108864)"),
+              std::string::npos)
+        << e.what();
   }
 }
 

@@ -2,11 +2,11 @@
 /// Headless simulation: drive the haptic tool along a trajectory at a fixed servo rate and record
 /// every step (`cariesim sim`, the experiments, the benchmarks).
 
-#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <vector>
 
+#include "cariesim/io/csv.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/trajectory.hpp"
 
@@ -45,7 +45,8 @@ std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory
 /// contacts, step_us. Throws cariesim::Error when the file cannot be written.
 void write_sim_csv(const std::filesystem::path& file, const std::vector<SimSample>& samples);
 
-/// The same CSV written row by row as a run goes (`cariesim sim` streams through it).
+/// The same CSV written row by row as a run goes (`cariesim sim` streams through it), through the one
+/// CSV writer (io/csv.hpp).
 class SimCsvWriter {
  public:
   /// Creates `file` and writes the header; throws cariesim::Error naming it when it cannot.
@@ -53,14 +54,15 @@ class SimCsvWriter {
   ~SimCsvWriter();
   SimCsvWriter(const SimCsvWriter&) = delete;
   SimCsvWriter& operator=(const SimCsvWriter&) = delete;
-  /// Appends one row; throws cariesim::Error when the write fails (e.g. a full disk).
+  /// Appends one row; throws cariesim::Error when a write fails (e.g. a full disk; rows are written
+  /// in blocks, so the failure shows at the block's write or at close()).
   void write(const SimSample& sample);
   /// Flushes and closes; throws cariesim::Error when that fails. Idempotent.
   void close();
 
  private:
-  std::filesystem::path file_;
-  std::FILE* out_ = nullptr;
+  io::CsvWriter out_;
+  bool closed_ = false;
 };
 
 }  // namespace cariesim

@@ -44,6 +44,9 @@ struct MeshReport {
   [[nodiscard]] bool watertight() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
 };
 
+/// Bytes: mesh files larger than this are refused before reading (a tooth scan is a few MB).
+inline constexpr std::uintmax_t kMaxMeshFileBytes = std::uintmax_t{1} << 30;
+
 /// Import options.
 /// mm: the smallest and largest extent a mesh may have (after `scale`); outside, it is an error
 /// naming the units (a scan in micrometres or metres read as millimetres).

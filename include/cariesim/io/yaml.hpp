@@ -1,10 +1,13 @@
 #pragma once
-// Strict, located reading of yaml-cpp nodes for every YAML document cariesim reads (scenes, studies,
-// courses, answers): every accessor checks the type and range of what it reads and throws
-// cariesim::Error "file:line:column: field.path: message".
+// Strict, located reading of every YAML document cariesim reads (scenes, studies, courses, answers):
+// parse_document opens one (bounded, one document, aliases bounded, syntax errors located), and
+// every accessor checks the type and range of what it reads and throws cariesim::Error
+// "file:line:column: field.path: message".
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
+#include <filesystem>
 #include <initializer_list>
 #include <optional>
 #include <string>
@@ -14,8 +17,35 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/common/math.hpp"
+#include "cariesim/io/file.hpp"
 
 namespace cariesim::io {
+
+/// Most nodes a document may hold, counting each alias as the nodes it stands for: a "billion laughs"
+/// document (aliases of aliases) or an alias inside its own anchor is refused before anything walks it.
+inline constexpr std::uint64_t kMaxYamlNodes = std::uint64_t{1} << 22;
+
+/// Parses `text` as one YAML document, strictly: at most `max_bytes` bytes; exactly one document (a
+/// second one after `---` is refused, not ignored); syntax errors and yaml-cpp's nesting bound
+/// (DeepRecursion) located as "origin:line:column: YAML syntax error: ..."; at most kMaxYamlNodes
+/// nodes with aliases expanded, and no alias inside the node it names. An empty text gives a null
+/// node. Throws cariesim::Error naming `origin`.
+YAML::Node parse_document(std::string_view text, const std::string& origin,
+                          std::uintmax_t max_bytes = kMaxTextBytes);
+
+/// The text of a document named by a built-in name or a file path (scenes, studies), and the origin
+/// its messages name ("builtin:NAME" or the path).
+struct NamedText {
+  std::string text;
+  std::filesystem::path origin;
+  bool builtin = false;
+};
+
+/// `builtin` is the built-in text named `name_or_file` (empty when none is), `names` every built-in's
+/// name. A built-in wins; otherwise the file is read through read_file (a regular file of at most
+/// `max_bytes`). Nothing there: "NAME: no such WHAT file, and not a built-in WHAT (a, b, c)".
+NamedText builtin_or_file(const std::string& name_or_file, std::string_view what, std::string_view builtin,
+                          const std::vector<std::string>& names, std::uintmax_t max_bytes = kMaxTextBytes);
 
 /// Formats and throws errors located at a node.
 class Reader {
