@@ -15,6 +15,7 @@
 #include "cariesim/experiment/json.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/training/course.hpp"
 #include "cariesim/training/scores.hpp"
 #include "record/sqlite.hpp"
 #include "training/study_schema.hpp"
@@ -32,18 +33,19 @@ struct StudyRun::Db {
 
 namespace {
 
-constexpr std::size_t kMaxParticipantLength = 64;
+// A name that becomes part of the recordings' file names (participant, study): the one rule of
+// valid_identifier (course.hpp), so no path can be built from anything else.
+void check_name(std::string_view what, const std::string& value, std::string_view example) {
+  if (value.empty()) throw Error(fmt::format("{}: required{}", what, example));
+  if (!valid_identifier(value))
+    throw Error(fmt::format("{} '{}': not a valid name ({})", what, value, kIdentifierRule));
+}
 
-// A participant id: letters, digits, '-', '_', '.'; not empty, at most 64 characters.
-void check_participant(const std::string& id) {
-  if (id.empty()) throw Error("participant: required (e.g. --participant P01)");
-  if (id.size() > kMaxParticipantLength)
-    throw Error(fmt::format("participant '{}': longer than {} characters", id, kMaxParticipantLength));
-  for (const char c : id) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.';
-    if (!ok)
-      throw Error(fmt::format("participant '{}': only letters, digits, '-', '_' and '.' are allowed", id));
-  }
+// Creates `file` empty and owner-only when it does not exist (SQLite then fills it, and gives its -wal
+// and -shm files the same mode).
+void create_private_file(const fs::path& file) {
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd >= 0) ::close(fd);
 }
 
 // This machine's name.
@@ -204,7 +206,8 @@ std::string scores_json(const std::vector<Score>& scores) {
 
 StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), options_(std::move(options)) {
   // The options, then the database, then the seed.
-  check_participant(options_.participant);
+  check_name("participant", options_.participant, " (e.g. --participant P01)");
+  check_name("study", study_.name, "");
   if (options_.station.empty()) options_.station = host_name();
   if (options_.recordings.empty()) options_.recordings = options_.database.stem().string() + "-recordings";
   if (options_.database.empty()) throw Error("study database: required (e.g. --out class.db)");

@@ -66,9 +66,13 @@ struct Course {
   [[nodiscard]] bool allows(std::string_view id) const;
 };
 
-/// True for a name usable as a station or participant ID: 1-64 characters, letters, digits, '.',
-/// '_' and '-', not starting with '.' (it becomes part of file names).
+/// True for a name usable as a station name, a participant ID or a study name: 1-64 characters,
+/// letters, digits, '.', '_' and '-', not starting with '.' (it becomes part of file names, so it can
+/// never hold a '/' or be "." or ".."). The one rule for every name that reaches a path.
 bool valid_identifier(std::string_view id);
+/// valid_identifier's rule in words, for messages.
+inline constexpr std::string_view kIdentifierRule =
+    "1-64 letters, digits, '.', '_' or '-', not starting with '.'";
 
 /// Parses course YAML; `origin` names it in messages and relative paths resolve against its folder.
 /// Throws cariesim::Error "file:line:column: field: message".
