@@ -444,6 +444,9 @@ std::string ViewerApp::status_json(int width, int height) const {
     json.field("can_unlock", lock_.can_unlock());
     json.field("unlocked", lock_.unlocked());
     json.field("refused", lock_.refused());
+    json.field("checking", lock_.checking());
+    json.field("deferred", lock_.deferred());
+    json.field("retry_in", lock_.wait_seconds());
     json.end_object();
   }
   // The scene and the engine's readouts: not in a trainee's file (they would name or locate lesions).

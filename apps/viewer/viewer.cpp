@@ -331,16 +331,38 @@ void ViewerApp::handle_input() {
 ViewSettings ViewerApp::shown_settings() const { return locked() ? trainee_settings(settings_) : settings_; }
 
 void ViewerApp::submit_passphrase(const std::string& passphrase) {
-  // Right: the full panel opens; wrong: refused, counted, and said so.
-  if (lock_.try_unlock(passphrase)) {
+  // The check runs on the lock's worker thread (poll_lock collects it); a try within the back-off
+  // after wrong passphrases is refused unchecked, and said so.
+  switch (lock_.submit(passphrase)) {
+    case InstructorLock::Submitted::Checking:
+      lock_message_.clear();
+      break;
+    case InstructorLock::Submitted::Busy:
+      break;
+    case InstructorLock::Submitted::Wait:
+      std::fprintf(stderr, "run: instructor passphrase not checked: next try in %.0f s (%d refused)\n",
+                   std::ceil(lock_.wait_seconds()), lock_.refused());
+      break;
+    case InstructorLock::Submitted::NoHash:
+      lock_message_ = "This window has no instructor passphrase (no course file).";
+      std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+      break;
+  }
+}
+
+void ViewerApp::poll_lock() {
+  // A finished check: the full panel opens, or the refusal is counted and the next wait said.
+  const std::optional<bool> outcome = lock_.poll();
+  if (!outcome) return;
+  if (*outcome) {
     lock_message_.clear();
     std::fprintf(stderr, "run: instructor unlocked the full panel\n");
-  } else {
-    lock_message_ = lock_.can_unlock()
-                        ? fmt::format("Wrong passphrase ({} refused).", lock_.refused())
-                        : std::string("This window has no instructor passphrase (no course file).");
-    std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+    return;
   }
+  const double wait = lock_.wait_seconds();
+  lock_message_ = fmt::format("Wrong passphrase ({} refused).", lock_.refused());
+  std::fprintf(stderr, "run: wrong instructor passphrase (%d refused%s)\n", lock_.refused(),
+               wait > 0.0 ? fmt::format("; next try in {:.0f} s", std::ceil(wait)).c_str() : "");
 }
 
 void ViewerApp::run_script() {
@@ -349,7 +371,9 @@ void ViewerApp::run_script() {
   ImGuiIO& io = ImGui::GetIO();
   if (script_key_down_ >= 0) io.KeysDown[script_key_down_] = false;
   script_key_down_ = -1;
-  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t) {
+  // A step waits while a passphrase is being checked (as a user waits for the answer).
+  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t &&
+         !lock_.checking()) {
     const ScriptStep& step = script_[script_next_];
     if (step.action == "key") {
       // One key a frame, so that each press is seen.
@@ -428,6 +452,7 @@ int ViewerApp::run() {
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
+    poll_lock();
     run_script();
     poll_build();
 

@@ -157,6 +157,8 @@ class ViewerApp {
   /// What the scene is drawn with: the panel's settings, or trainee_settings() of them when locked.
   [[nodiscard]] ViewSettings shown_settings() const;
   void submit_passphrase(const std::string& passphrase);
+  /// Collects the outcome of a passphrase check that finished (every frame).
+  void poll_lock();
   std::vector<std::string> sections_;  // the panel's sections drawn in the last frame
 
   // The course's study (study_panel.cpp): the study and its run for the participant, what the panel

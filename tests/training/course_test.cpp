@@ -136,6 +136,25 @@ TEST(Course, ErrorsNameFileLineColumnAndField) {
   std::string plain = course_yaml();
   plain.replace(plain.find(kKnownHash), std::string(kKnownHash).size(), "letmein");
   EXPECT_THAT(parse_error(plain), HasSubstr("6:13: instructor: expected pbkdf2-sha256$ITERATIONS"));
+  // A salt beyond kPassphraseMaxSaltBytes (20 MB was accepted), and a cost beyond the bound.
+  std::string long_salt = course_yaml();
+  long_salt.replace(long_salt.find("000102030405060708090a0b0c0d0e0f"), 32, std::string(2 * 65, 'a'));
+  EXPECT_THAT(parse_error(long_salt), HasSubstr("6:13: instructor: the salt has 65 bytes; at most 64"));
+  std::string huge_salt = course_yaml();
+  huge_salt.replace(huge_salt.find("000102030405060708090a0b0c0d0e0f"), 32, std::string(2 << 20, 'a'));
+  EXPECT_THAT(parse_error(huge_salt), HasSubstr("6:13: instructor: the salt has 1048576 bytes; at most 64"));
+  std::string costly = course_yaml();
+  costly.replace(costly.find("$100000$"), 8, "$10000000$");
+  EXPECT_THAT(parse_error(costly), HasSubstr("6:13: instructor: iteration count 10000000 is outside"));
+  // A records folder that is a system folder, the root or a top-level folder.
+  for (const char* records :
+       {"/", "/etc", "/proc/self", "../../../../../../../../../../etc", "/tmp", "/usr/share/x"}) {
+    std::string yaml = course_yaml();
+    yaml.replace(yaml.find("records: records"), 16, std::string("records: '") + records + "'");
+    EXPECT_THAT(parse_error(yaml),
+                HasSubstr("class/course.yaml:4:10: records: '" + std::string(records) + "' is "))
+        << records;
+  }
   // Syntax, and a document that is not a mapping.
   EXPECT_THAT(parse_error("course: [unclosed\n"), HasSubstr("class/course.yaml:"));
   EXPECT_THAT(parse_error("course: [unclosed\n"), HasSubstr("YAML syntax error"));
@@ -249,6 +268,9 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
       "pbkdf2-sha256$1e5$0001020304050607$" + std::string(64, 'a'),
       "pbkdf2-sha256$99999999999$0001020304050607$" + std::string(64, 'a'),
       "pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a') + "$extra",
+      // A salt longer than kPassphraseMaxSaltBytes (it was unbounded), a cost above the bound.
+      "pbkdf2-sha256$100000$" + std::string(2 * 65, '0') + "$" + std::string(64, 'a'),
+      "pbkdf2-sha256$2000001$0001020304050607$" + std::string(64, 'a'),
   };
   for (const std::string& h : bad) {
     EXPECT_THROW((void)parse_passphrase_hash(h), Error) << h;
@@ -256,6 +278,9 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
   }
   EXPECT_NO_THROW(
       (void)parse_passphrase_hash("pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a')));
+  EXPECT_NO_THROW((void)parse_passphrase_hash("pbkdf2-sha256$2000000$" + std::string(2 * 64, '0') + "$" +
+                                              std::string(64, 'a')))
+      << "the largest salt and cost";
 }
 
 // docs/instructors.md's example course file parses, and its hash is of the passphrase the page names.

@@ -19,11 +19,13 @@ namespace cariesim::training {
 /// Iterations of a new passphrase hash (OWASP's 2023 figure for PBKDF2-HMAC-SHA256; ~0.16 s here).
 inline constexpr int kPassphraseIterations = 600000;
 /// Fewest and most iterations a course file's hash may have (weaker is refused; more would make
-/// every unlock attempt take seconds).
+/// every unlock attempt cost over half a second here: ~0.53 s at the maximum).
 inline constexpr int kPassphraseMinIterations = 100000;
-inline constexpr int kPassphraseMaxIterations = 10000000;
+inline constexpr int kPassphraseMaxIterations = 2000000;
 /// Bytes of a new hash's salt and of the derived key.
 inline constexpr std::size_t kPassphraseSaltBytes = 16;
+/// Most bytes a stored hash's salt may have (RFC 8018 asks for at least 8; 16 are made).
+inline constexpr std::size_t kPassphraseMaxSaltBytes = 64;
 inline constexpr std::size_t kPassphraseHashBytes = 32;
 /// Shortest passphrase `hash_passphrase` accepts (characters).
 inline constexpr std::size_t kPassphraseMinLength = 8;
@@ -31,7 +33,7 @@ inline constexpr std::size_t kPassphraseMinLength = 8;
 /// A decoded `pbkdf2-sha256$ITER$SALT$HASH`.
 struct PassphraseHash {
   int iterations = 0;               ///< PBKDF2 iteration count
-  std::vector<unsigned char> salt;  ///< random salt, at least 8 bytes
+  std::vector<unsigned char> salt;  ///< random salt, 8 to kPassphraseMaxSaltBytes bytes
   std::vector<unsigned char> hash;  ///< derived key, 32 bytes
 };
 
