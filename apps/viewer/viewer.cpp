@@ -164,9 +164,11 @@ void ViewerApp::request_build(const std::string& label, std::function<SceneDesc(
   build_->source = label;
   build_->trial = trial;
   PendingBuild* pending = build_.get();
-  pending->result = std::async(std::launch::async, [pending, load = std::move(load)] {
+  // In trainee mode no part of an object with lesions goes into the station's tree cache.
+  pending->result = std::async(std::launch::async, [pending, load = std::move(load), trainee = trainee_] {
     const SceneDesc desc = load();
     BuildOptions build;
+    build.cache_lesion_parts = !trainee;
     build.progress = [pending](std::string_view stage, double fraction) {
       const std::lock_guard lock(pending->mutex);
       pending->stage = std::string(stage);
@@ -183,8 +185,12 @@ void ViewerApp::poll_build() {
   std::unique_ptr<PendingBuild> done = std::move(build_);
   try {
     std::unique_ptr<Model> model = done->result.get();
-    std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
-                 model->objects.size());
+    // The part count gives the lesion count away: not in trainee mode.
+    if (trainee_)
+      std::fprintf(stderr, "run: %s ready\n", done->source.c_str());
+    else
+      std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
+                   model->objects.size());
     start_session(std::move(model), done->source, done->trial);
   } catch (const Error& e) {
     // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
@@ -194,8 +200,8 @@ void ViewerApp::poll_build() {
       study_message_ = locked() ? std::string("This trial could not start; please call the instructor.")
                                 : std::string("This trial could not start: ") + e.what();
       study_message_is_error_ = true;
-      std::fprintf(stderr, "run: trial %d could not start: %s\n", run_->current_trial() + 1, e.what());
-      run_->abandon_trial();
+      note_problem(fmt::format("trial {} could not start: {}", run_->current_trial() + 1, e.what()));
+      run_->abandon_trial(e.what());
       if (!run_->finished()) begin_trial();
       return;
     }
@@ -225,6 +231,9 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   if (trial && run_) {
     // A study trial records itself where the run says; an answers entry may give its own device.
     session_options.record = run_->recording_path().string();
+    // Held in memory until the trial's session stops: its lesion parameters and the samples' lesion
+    // column are not on disk while the trainee probes.
+    session_options.recorder.hold_until_stop = true;
     if (answers_ && !answers_->trials.empty()) {
       const auto& entries = answers_->trials;
       const auto& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
@@ -506,8 +515,9 @@ void ViewerApp::print_summary() const {
   // What the UI showed last, and the servo loop's timing (TimingReport).
   if (!session_) return;
   const StepOutput& out = snapshot_.out;
-  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view).
-  if (locked()) {
+  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view), also
+  // after the instructor unlocked the panel.
+  if (trainee_) {
     std::printf("run: trainee mode, device %s, %.0f Hz servo, t %.3f s\n", options_.device.c_str(),
                 session_->run->rate_hz(), snapshot_.t);
   } else {

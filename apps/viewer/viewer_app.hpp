@@ -180,6 +180,10 @@ class ViewerApp {
   std::vector<training::TrialResult> results_;
   [[nodiscard]] bool study_finished() const { return run_ && run_->finished(); }
   [[nodiscard]] bool trial_live() const;
+  /// The last trial problem in full (it may name the case): for the unlocked instructor's panel.
+  std::string problem_detail_;
+  /// A trial problem: its detail to problem_detail_, and to stderr unless in trainee mode.
+  void note_problem(const std::string& detail);
   void start_study(const std::string& participant);
   void begin_trial();
   void end_trial();

@@ -4,10 +4,15 @@
 
 #include "cariesim/training/run.hpp"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "cariesim/common/clock.hpp"
@@ -217,6 +222,7 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
   std::error_code ec;
   if (const fs::path dir = options_.database.parent_path(); !dir.empty() && !fs::is_directory(dir, ec))
     throw Error(fmt::format("{}: the folder {} does not exist", options_.database.string(), dir.string()));
+  if (options_.private_files && !fs::exists(options_.database, ec)) create_private_file(options_.database);
   db_ = std::make_unique<Db>(options_.database);
   open_study_database(db_->db);
   if (options_.seed) {
@@ -252,7 +258,8 @@ const TrialSetup& StudyRun::begin_trial() {
     insert.bind(2, study_.name);
     insert.bind(3, std::string(study_kind_name(study_.kind)));
     insert.bind(4, int64_t{current_ + 1});
-    insert.bind(5, static_cast<int64_t>(setup_.seed));
+    // In trainee mode the seed (it rebuilds the case) waits for the trial's end.
+    insert.bind(5, options_.hide_case_while_running ? kSeedNotWritten : static_cast<int64_t>(setup_.seed));
     insert.bind(6, utc_now_iso8601());
     if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
     row_ = sqlite3_last_insert_rowid(db.get());
@@ -277,11 +284,15 @@ const TrialSetup& StudyRun::begin_trial() {
     db.try_exec("ROLLBACK");
     throw;
   }
-  std::error_code ec;
-  fs::create_directories(recording_path_.parent_path(), ec);
-  if (ec)
-    throw Error(fmt::format("{}: cannot create the recordings folder: {}",
-                            recording_path_.parent_path().string(), ec.message()));
+  if (options_.private_files) {
+    create_study_folder(recording_path_.parent_path());
+  } else {
+    std::error_code ec;
+    fs::create_directories(recording_path_.parent_path(), ec);
+    if (ec)
+      throw Error(fmt::format("{}: cannot create the recordings folder: {}",
+                              recording_path_.parent_path().string(), ec.message()));
+  }
   in_trial_ = true;
   return setup_;
 }
@@ -392,14 +403,15 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   Database& db = db_->db;
   db.exec("BEGIN IMMEDIATE", "cannot begin ending the trial");
   try {
-    Statement update(
-        db,
-        "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
+    Statement update(db,
+                     "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ?,"
+                     " seed = ? WHERE id = ?");
     update.bind(0, utc_now_iso8601());
     update.bind(1, stored);
     update.bind(2, result.answers_json);
     update.bind(3, result.scores_json);
-    update.bind(4, row_);
+    update.bind(4, static_cast<int64_t>(setup_.seed));
+    update.bind(5, row_);
     if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
     Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
     for (const Score& s : result.scores) {
@@ -421,10 +433,41 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   return result;
 }
 
-void StudyRun::abandon_trial() {
+void StudyRun::abandon_trial(const std::string& reason) {
   if (!in_trial_) throw Error(fmt::format("study {}: no trial has begun", study_.name));
+  // The reason and the seed into the row (ended_at stays NULL); a failure here is only logged.
+  if (!reason.empty() || options_.hide_case_while_running) {
+    try {
+      JsonWriter w;
+      w.begin_object();
+      if (!reason.empty()) w.field("error", reason);
+      w.end_object();
+      Statement update(db_->db, reason.empty() ? "UPDATE trials SET seed = ? WHERE id = ?"
+                                               : "UPDATE trials SET seed = ?, answers = ? WHERE id = ?");
+      update.bind(0, static_cast<int64_t>(setup_.seed));
+      if (!reason.empty()) update.bind(1, w.str());
+      update.bind(reason.empty() ? 1 : 2, row_);
+      if (update.step() != SQLITE_DONE) db_->db.fail("cannot note why the trial was abandoned");
+    } catch (const Error& e) {
+      spdlog::error("study {}: {}", study_.name, e.what());
+    }
+  }
   in_trial_ = false;
   ++current_;
+}
+
+void create_study_folder(const fs::path& folder) {
+  // The parents as they come, then the folder itself created 0700 (no moment with a wider mode).
+  std::error_code ec;
+  if (fs::is_directory(folder, ec)) return;
+  if (const fs::path parent = folder.parent_path(); !parent.empty()) {
+    fs::create_directories(parent, ec);
+    if (ec) throw Error(fmt::format("{}: cannot create the folder: {}", parent.string(), ec.message()));
+  }
+  if (::mkdir(folder.c_str(), 0700) != 0 && errno != EEXIST)
+    throw Error(fmt::format("{}: cannot create the folder: {}", folder.string(), std::strerror(errno)));
+  if (!fs::is_directory(folder, ec))
+    throw Error(fmt::format("{}: exists and is not a folder", folder.string()));
 }
 
 }  // namespace cariesim::training
