@@ -1,8 +1,24 @@
 #include "commands.hpp"
 
+#include <fmt/format.h>
+
 #include <cstdio>
 
+#include "cariesim/training/study.hpp"
+
 namespace cariesim::cli {
+
+CLI::Option* add_seed_option(CLI::App* sub, std::optional<uint64_t>& seed, const std::string& description) {
+  // The text is checked before CLI11 converts it (its conversion of "-1" to an unsigned type wraps).
+  const CLI::Validator strict(
+      [](std::string& text) -> std::string {
+        if (training::parse_seed(text)) return {};
+        return fmt::format("'{}' is not a seed: an integer in [0, {}] in decimal digits", text,
+                           training::kMaxSeed);
+      },
+      fmt::format("SEED in [0 - {}]", training::kMaxSeed));
+  return sub->add_option("--seed", seed, description)->check(strict);
+}
 
 // Defined in the command files (run_command.cpp, tree_command.cpp, scene_command.cpp,
 // export_command.cpp, servo_command.cpp).

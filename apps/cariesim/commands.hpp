@@ -2,7 +2,9 @@
 // Subcommand registry of the cariesim binary. Each command file defines one `register_<name>`.
 #include <CLI/CLI.hpp>
 #include <cmath>
+#include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,11 @@ inline CLI::Validator finite_range(double min, double max) {
       },
       "FINITE in [" + CLI::detail::to_string(min) + " - " + CLI::detail::to_string(max) + "]");
 }
+
+/// Adds `--seed` (a study seed) to a subcommand: decimal digits only, in [0, 2^63 - 1]
+/// (training::parse_seed, the rule of a study file's `seed:`); anything else (`-1`,
+/// `99999999999999999999`, `0x10`) is refused naming the option, never wrapped around.
+CLI::Option* add_seed_option(CLI::App* sub, std::optional<uint64_t>& seed, const std::string& description);
 
 /// Adds `--spin-us` (ServoOptions::spin_us) to a subcommand that runs the servo loop.
 void add_spin_option(CLI::App* sub, double& spin_us);

@@ -59,6 +59,11 @@ int check_command(const std::string& file) {
               c.study_is_file ? " (file)" : " (built-in)",
               std::string(training::study_kind_name(study.kind)).c_str(), study.trials);
   std::printf("  station  %s, study database %s\n", c.station.c_str(), c.database().string().c_str());
+  // A fixed seed in a study file the station can read rebuilds every case (docs/instructors.md).
+  if (study.seed)
+    std::printf(
+        "  note: the study has a fixed seed: whoever reads its file can rebuild every case; leave "
+        "`seed:` out for an assessed class\n");
   if (c.participants.empty())
     std::printf("  participants: any ID\n");
   else

@@ -116,7 +116,7 @@ void register_run(CLI::App& app, Registry& registry) {
   sub->add_option("--trials", args->trials, "Override the course study's trial count")
       ->check(CLI::Range(1, 1000))
       ->needs(course);
-  sub->add_option("--seed", args->seed, "The course study's seed (default: the study file's, else drawn)")
+  add_seed_option(sub, args->seed, "The course study's seed (default: the study file's, else drawn)")
       ->needs(course);
   sub->add_option("--script", args->script,
                   "Window script for automation: timed key presses and passphrases (docs/viewer.md)");

@@ -25,8 +25,8 @@ struct StudyRunArgs {
   std::string answers;
   std::string out;
   std::string station;
-  uint64_t seed = 0;
-  int trials = 0;         // 0: the study's
+  std::optional<uint64_t> seed;  // unset: the study's, else drawn
+  int trials = 0;                // 0: the study's
   double duration = 0.0;  // s per trial when the device does not end
   bool quiet = false;
 };
@@ -77,7 +77,7 @@ int run_study(const StudyRunArgs& args) {
   options.participant = args.participant;
   options.station = args.station;
   options.database = args.out;
-  if (args.seed != 0) options.seed = args.seed;
+  options.seed = args.seed;
   if (args.trials > 0) options.trials = args.trials;
   training::StudyRun run(study, options);
   training::HeadlessOptions headless;
@@ -115,8 +115,7 @@ void register_study(CLI::App& app, Registry& registry) {
   run->add_option("--answers", args->answers, "answers file (YAML, docs/training.md)")->required();
   run->add_option("--out", args->out, "study database (SQLite), created or appended to")->required();
   run->add_option("--station", args->station, "station name in the database (default: the host name)");
-  run->add_option("--seed", args->seed, "study seed, 1 to 2^63-1 (default: the study's, else drawn)")
-      ->check(CLI::Range(uint64_t{1}, (uint64_t{1} << 63) - 1));
+  add_seed_option(run, args->seed, "study seed, 0 to 2^63-1 (default: the study's, else drawn)");
   run->add_option("--trials", args->trials, "number of trials (default: the study's)")
       ->check(CLI::Range(1, 1000));
   run->add_option("--duration", args->duration, "seconds per trial when the device does not end (default 1)")

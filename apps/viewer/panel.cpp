@@ -328,20 +328,33 @@ void ViewerApp::panel_instructor() {
   if (lock_.unlocked()) {
     ImGui::TextWrapped("The full panel is open: lesions, states and overlays are visible.");
     if (ImGui::Button("Lock (back to trainee mode)")) lock_.lock();
+    // What went wrong with a trial, in full (the trainee saw only "call the instructor").
+    if (!problem_detail_.empty()) ImGui::TextWrapped("Last trial problem: %s", problem_detail_.c_str());
     return;
   }
   if (!lock_.can_unlock()) {
     ImGui::TextDisabled("No instructor passphrase: run with --course to allow unlocking.");
     return;
   }
+  // While a passphrase is checked (on the lock's worker) or the back-off runs, no new try.
+  const double wait = lock_.wait_seconds();
+  const bool busy = lock_.checking() || wait > 0.0;
+  ImGui::BeginDisabled(busy);
   const bool enter = ImGui::InputText("passphrase", &passphrase_input_,
                                       ImGuiInputTextFlags_Password | ImGuiInputTextFlags_EnterReturnsTrue);
   ImGui::SameLine();
-  if ((ImGui::Button("Unlock") || enter) && !passphrase_input_.empty()) {
+  if ((ImGui::Button("Unlock") || enter) && !passphrase_input_.empty() && !busy) {
     submit_passphrase(passphrase_input_);
     passphrase_input_.clear();
   }
-  if (!lock_message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", lock_message_.c_str());
+  ImGui::EndDisabled();
+  if (lock_.checking())
+    ImGui::TextDisabled("Checking the passphrase...");
+  else if (wait > 0.0)
+    ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s Too many wrong passphrases: next try in %.0f s.",
+                       lock_message_.c_str(), std::ceil(wait));
+  else if (!lock_message_.empty())
+    ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", lock_message_.c_str());
 }
 
 void ViewerApp::panel_lesion() {
@@ -444,6 +457,9 @@ std::string ViewerApp::status_json(int width, int height) const {
     json.field("can_unlock", lock_.can_unlock());
     json.field("unlocked", lock_.unlocked());
     json.field("refused", lock_.refused());
+    json.field("checking", lock_.checking());
+    json.field("deferred", lock_.deferred());
+    json.field("retry_in", lock_.wait_seconds());
     json.end_object();
   }
   // The scene and the engine's readouts: not in a trainee's file (they would name or locate lesions).

@@ -44,6 +44,16 @@ std::string clock_text(double seconds) {
 
 }  // namespace
 
+void ViewerApp::note_problem(const std::string& detail) {
+  // In trainee mode the terminal may be in the trainee's view: it gets no detail, the instructor's
+  // panel keeps it (and the study database has it where the trial's row exists).
+  problem_detail_ = detail;
+  if (trainee_)
+    std::fprintf(stderr, "run: a trial problem (the instructor's panel shows it)\n");
+  else
+    std::fprintf(stderr, "run: %s\n", detail.c_str());
+}
+
 bool ViewerApp::trial_live() const {
   return run_ && run_->in_trial() && !build_ && session_ && session_->run->running();
 }
@@ -65,11 +75,13 @@ void ViewerApp::start_study(const std::string& participant) {
   run_options.database = course_->database();
   run_options.trials = options_.trials;
   run_options.seed = options_.seed;
-  std::error_code ec;
-  std::filesystem::create_directories(course_->records, ec);
-  if (ec) {
-    study_message_ =
-        fmt::format("{}: cannot create the records folder: {}", course_->records.string(), ec.message());
+  // Nothing on disk names the running trial's case (its seed waits for its end; its recording is
+  // held in memory, start_session); a new records folder is owner-only.
+  run_options.hide_case_while_running = true;
+  try {
+    training::create_study_folder(course_->records);
+  } catch (const Error& e) {
+    study_message_ = std::string("cannot create the records folder: ") + e.what();
     study_message_is_error_ = true;
     std::fprintf(stderr, "run: %s\n", study_message_.c_str());
     return;
@@ -83,9 +95,10 @@ void ViewerApp::start_study(const std::string& participant) {
     std::fprintf(stderr, "run: cannot start the study: %s\n", e.what());
     return;
   }
-  std::fprintf(stderr, "run: study %s for %s at station %s, %d trials, seed %llu, database %s\n",
-               study_->name.c_str(), participant.c_str(), course_->station.c_str(), run_->trial_count(),
-               static_cast<unsigned long long>(run_->seed()), course_->database().string().c_str());
+  // Not the seed: it rebuilds every case (each trial's seed is in the database once the trial ends).
+  std::fprintf(stderr, "run: study %s for %s at station %s, %d trials, database %s\n", study_->name.c_str(),
+               participant.c_str(), course_->station.c_str(), run_->trial_count(),
+               course_->database().string().c_str());
   study_message_.clear();
   begin_trial();
 }
@@ -98,11 +111,12 @@ void ViewerApp::begin_trial() {
   try {
     copy = run_->begin_trial();
   } catch (const Error& e) {
-    // The database refused the row (or the trial cannot be made): said in the panel and on stderr.
+    // The database refused the row (or the trial cannot be made). The reason may name the case: the
+    // trainee (and the terminal) are told to call the instructor, who sees it in the unlocked panel.
     study_message_ = locked() ? std::string("The next trial could not begin; please call the instructor.")
                               : std::string("The next trial could not begin: ") + e.what();
     study_message_is_error_ = true;
-    std::fprintf(stderr, "run: the next trial could not begin: %s\n", e.what());
+    note_problem(fmt::format("the next trial could not begin: {}", e.what()));
     return;
   }
   const training::TrialSetup& setup = copy;
@@ -125,13 +139,13 @@ void ViewerApp::end_trial() {
     results_.push_back(std::move(result));
     study_message_.clear();
   } catch (const Error& e) {
-    // The row keeps ended_at NULL; the run moves on.
+    // The row keeps ended_at NULL, with the reason (it may name the case's lesions); the run moves on.
     study_message_ = locked()
                          ? fmt::format("Trial {} could not be saved; please call the instructor.", index + 1)
                          : fmt::format("Trial {} could not be saved: {}", index + 1, e.what());
     study_message_is_error_ = true;
-    std::fprintf(stderr, "run: trial %d could not be saved: %s\n", index + 1, e.what());
-    run_->abandon_trial();
+    note_problem(fmt::format("trial {} could not be saved: {}", index + 1, e.what()));
+    run_->abandon_trial(e.what());
   }
   if (!run_->finished()) begin_trial();
 }

@@ -4,6 +4,7 @@
 #include <GLFW/glfw3.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -27,14 +28,85 @@ ViewSettings trainee_settings(const ViewSettings& settings) {
   return s;
 }
 
-bool InstructorLock::try_unlock(std::string_view passphrase) {
-  // Nothing unlocks without a hash; the hash was checked when the course file was read.
-  if (hash_.empty() || !training::verify_passphrase(passphrase, hash_)) {
-    ++refused_;
-    return false;
+InstructorLock::InstructorLock(std::string hash, std::function<Clock::time_point()> now)
+    : hash_(std::move(hash)), now_(std::move(now)) {}
+
+InstructorLock::~InstructorLock() {
+  if (pending_.valid()) pending_.wait();
+}
+
+InstructorLock::InstructorLock(InstructorLock&&) noexcept = default;
+
+InstructorLock& InstructorLock::operator=(InstructorLock&& other) noexcept {
+  // A check in flight on this lock ends before it is replaced.
+  if (this != &other) {
+    if (pending_.valid()) pending_.wait();
+    hash_ = std::move(other.hash_);
+    now_ = std::move(other.now_);
+    pending_ = std::move(other.pending_);
+    unlocked_ = other.unlocked_;
+    refused_ = other.refused_;
+    failures_ = other.failures_;
+    deferred_ = other.deferred_;
+    next_try_ = other.next_try_;
   }
-  unlocked_ = true;
-  return true;
+  return *this;
+}
+
+double InstructorLock::backoff_seconds(int failures) {
+  if (failures < kFreeTries) return 0.0;
+  const int doublings = std::min(failures - kFreeTries, 30);
+  return std::min(std::ldexp(1.0, doublings), kMaxBackoff);
+}
+
+double InstructorLock::wait_seconds() const {
+  const double left = std::chrono::duration<double>(next_try_ - now_()).count();
+  return std::max(left, 0.0);
+}
+
+InstructorLock::Submitted InstructorLock::submit(std::string passphrase) {
+  // Nothing unlocks without a hash; one check at a time; none within the back-off.
+  if (hash_.empty()) {
+    ++refused_;
+    return Submitted::NoHash;
+  }
+  if (pending_.valid()) return Submitted::Busy;
+  if (wait_seconds() > 0.0) {
+    ++deferred_;
+    return Submitted::Wait;
+  }
+  // PBKDF2 on the worker (the hash was checked when the course file was read; a throw is a refusal).
+  pending_ = std::async(std::launch::async, [hash = hash_, passphrase = std::move(passphrase)] {
+    try {
+      return training::verify_passphrase(passphrase, hash);
+    } catch (const Error&) {
+      return false;
+    }
+  });
+  return Submitted::Checking;
+}
+
+std::optional<bool> InstructorLock::poll() {
+  if (!pending_.valid() || pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+    return std::nullopt;
+  // The outcome: open, or one more wrong passphrase and the wait before the next try.
+  const bool right = pending_.get();
+  if (right) {
+    unlocked_ = true;
+    failures_ = 0;
+    next_try_ = {};
+    return true;
+  }
+  ++refused_;
+  ++failures_;
+  next_try_ = now_() + std::chrono::duration_cast<Clock::duration>(
+                           std::chrono::duration<double>(backoff_seconds(failures_)));
+  return false;
+}
+
+std::optional<bool> InstructorLock::wait() {
+  if (pending_.valid()) pending_.wait();
+  return poll();
 }
 
 int script_key_code(std::string_view name) {

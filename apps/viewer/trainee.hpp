@@ -2,6 +2,9 @@
 /// Trainee mode (docs/viewer.md, docs/instructors.md): what a trainee may see, the instructor's
 /// passphrase lock over the full panel, and the script that drives the window in tests.
 
+#include <chrono>
+#include <functional>
+#include <future>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -18,24 +21,67 @@ namespace cariesim::viewer {
 ViewSettings trainee_settings(const ViewSettings& settings);
 
 /// The instructor's lock: the full panel opens for the passphrase whose hash the course file holds.
+///
+/// A passphrase is checked on a worker thread (PBKDF2 takes up to kPassphraseMaxIterations' worth,
+/// about 0.5 s), so the window keeps drawing and says "checking"; the UI thread collects the outcome
+/// with poll() each frame. After kFreeTries wrong passphrases in a row each further try waits
+/// (backoff_seconds: 1 s, then 2, 4, ... at most kMaxBackoff) from the end of the last wrong one;
+/// a try in that time is refused unchecked. A right passphrase starts the count over.
 class InstructorLock {
  public:
+  using Clock = std::chrono::steady_clock;
+  /// Wrong passphrases in a row before the tries are spaced out.
+  static constexpr int kFreeTries = 3;
+  /// s, the longest wait between two tries.
+  static constexpr double kMaxBackoff = 300.0;
+
   /// `hash`: the stored passphrase hash; empty: nothing unlocks (trainee mode without a course).
-  explicit InstructorLock(std::string hash = {}) : hash_(std::move(hash)) {}
-  /// Checks a passphrase (PBKDF2, ~0.16 s): true and unlocked when right; a wrong one is refused and
-  /// counted.
-  bool try_unlock(std::string_view passphrase);
+  /// `now`: the clock of the back-off (tests give their own).
+  explicit InstructorLock(std::string hash = {}, std::function<Clock::time_point()> now = Clock::now);
+  /// Waits for a check in flight.
+  ~InstructorLock();
+  InstructorLock(InstructorLock&&) noexcept;
+  InstructorLock& operator=(InstructorLock&&) noexcept;
+
+  /// What submit() did.
+  enum class Submitted {
+    Checking,  ///< the check runs on the worker; poll() gives its outcome
+    Busy,      ///< a check is already running: nothing done
+    Wait,      ///< within the back-off after wrong passphrases: refused unchecked (wait_seconds())
+    NoHash,    ///< this window has no passphrase (no course): refused and counted
+  };
+  /// Starts checking a passphrase on the worker thread and returns at once.
+  Submitted submit(std::string passphrase);
+  /// Collects a finished check (call every frame): true unlocked, false refused (counted), unset
+  /// when no check finished since the last call.
+  std::optional<bool> poll();
+  /// Blocks until the check in flight (if any) ends, then poll() (tests, shutdown).
+  std::optional<bool> wait();
   /// Back to trainee mode.
   void lock() { unlocked_ = false; }
   [[nodiscard]] bool unlocked() const { return unlocked_; }
   [[nodiscard]] bool can_unlock() const { return !hash_.empty(); }
-  /// Wrong passphrases so far.
+  /// True while a passphrase is being checked.
+  [[nodiscard]] bool checking() const { return pending_.valid(); }
+  /// Wrong passphrases so far (all, not only those in a row).
   [[nodiscard]] int refused() const { return refused_; }
+  /// Tries refused unchecked because they came within the back-off.
+  [[nodiscard]] int deferred() const { return deferred_; }
+  /// s until the next try is checked (0: now).
+  [[nodiscard]] double wait_seconds() const;
+  /// s a try must wait after `failures` wrong passphrases in a row: 0 below kFreeTries, then
+  /// 2^(failures - kFreeTries), at most kMaxBackoff.
+  static double backoff_seconds(int failures);
 
  private:
   std::string hash_;
+  std::function<Clock::time_point()> now_;
+  std::future<bool> pending_;
   bool unlocked_ = false;
   int refused_ = 0;
+  int failures_ = 0;  // wrong in a row
+  int deferred_ = 0;
+  Clock::time_point next_try_{};  // no try is checked before this
 };
 
 /// One step of a window script (`cariesim run --script FILE`): at `t` seconds of servo time of the

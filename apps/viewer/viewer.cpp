@@ -164,9 +164,11 @@ void ViewerApp::request_build(const std::string& label, std::function<SceneDesc(
   build_->source = label;
   build_->trial = trial;
   PendingBuild* pending = build_.get();
-  pending->result = std::async(std::launch::async, [pending, load = std::move(load)] {
+  // In trainee mode no part of an object with lesions goes into the station's tree cache.
+  pending->result = std::async(std::launch::async, [pending, load = std::move(load), trainee = trainee_] {
     const SceneDesc desc = load();
     BuildOptions build;
+    build.cache_lesion_parts = !trainee;
     build.progress = [pending](std::string_view stage, double fraction) {
       const std::lock_guard lock(pending->mutex);
       pending->stage = std::string(stage);
@@ -183,8 +185,12 @@ void ViewerApp::poll_build() {
   std::unique_ptr<PendingBuild> done = std::move(build_);
   try {
     std::unique_ptr<Model> model = done->result.get();
-    std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
-                 model->objects.size());
+    // The part count gives the lesion count away: not in trainee mode.
+    if (trainee_)
+      std::fprintf(stderr, "run: %s ready\n", done->source.c_str());
+    else
+      std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
+                   model->objects.size());
     start_session(std::move(model), done->source, done->trial);
   } catch (const Error& e) {
     // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
@@ -194,8 +200,8 @@ void ViewerApp::poll_build() {
       study_message_ = locked() ? std::string("This trial could not start; please call the instructor.")
                                 : std::string("This trial could not start: ") + e.what();
       study_message_is_error_ = true;
-      std::fprintf(stderr, "run: trial %d could not start: %s\n", run_->current_trial() + 1, e.what());
-      run_->abandon_trial();
+      note_problem(fmt::format("trial {} could not start: {}", run_->current_trial() + 1, e.what()));
+      run_->abandon_trial(e.what());
       if (!run_->finished()) begin_trial();
       return;
     }
@@ -225,6 +231,9 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   if (trial && run_) {
     // A study trial records itself where the run says; an answers entry may give its own device.
     session_options.record = run_->recording_path().string();
+    // Held in memory until the trial's session stops: its lesion parameters and the samples' lesion
+    // column are not on disk while the trainee probes.
+    session_options.recorder.hold_until_stop = true;
     if (answers_ && !answers_->trials.empty()) {
       const auto& entries = answers_->trials;
       const auto& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
@@ -331,16 +340,38 @@ void ViewerApp::handle_input() {
 ViewSettings ViewerApp::shown_settings() const { return locked() ? trainee_settings(settings_) : settings_; }
 
 void ViewerApp::submit_passphrase(const std::string& passphrase) {
-  // Right: the full panel opens; wrong: refused, counted, and said so.
-  if (lock_.try_unlock(passphrase)) {
+  // The check runs on the lock's worker thread (poll_lock collects it); a try within the back-off
+  // after wrong passphrases is refused unchecked, and said so.
+  switch (lock_.submit(passphrase)) {
+    case InstructorLock::Submitted::Checking:
+      lock_message_.clear();
+      break;
+    case InstructorLock::Submitted::Busy:
+      break;
+    case InstructorLock::Submitted::Wait:
+      std::fprintf(stderr, "run: instructor passphrase not checked: next try in %.0f s (%d refused)\n",
+                   std::ceil(lock_.wait_seconds()), lock_.refused());
+      break;
+    case InstructorLock::Submitted::NoHash:
+      lock_message_ = "This window has no instructor passphrase (no course file).";
+      std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+      break;
+  }
+}
+
+void ViewerApp::poll_lock() {
+  // A finished check: the full panel opens, or the refusal is counted and the next wait said.
+  const std::optional<bool> outcome = lock_.poll();
+  if (!outcome) return;
+  if (*outcome) {
     lock_message_.clear();
     std::fprintf(stderr, "run: instructor unlocked the full panel\n");
-  } else {
-    lock_message_ = lock_.can_unlock()
-                        ? fmt::format("Wrong passphrase ({} refused).", lock_.refused())
-                        : std::string("This window has no instructor passphrase (no course file).");
-    std::fprintf(stderr, "run: wrong instructor passphrase (%d refused)\n", lock_.refused());
+    return;
   }
+  const double wait = lock_.wait_seconds();
+  lock_message_ = fmt::format("Wrong passphrase ({} refused).", lock_.refused());
+  std::fprintf(stderr, "run: wrong instructor passphrase (%d refused%s)\n", lock_.refused(),
+               wait > 0.0 ? fmt::format("; next try in {:.0f} s", std::ceil(wait)).c_str() : "");
 }
 
 void ViewerApp::run_script() {
@@ -349,7 +380,9 @@ void ViewerApp::run_script() {
   ImGuiIO& io = ImGui::GetIO();
   if (script_key_down_ >= 0) io.KeysDown[script_key_down_] = false;
   script_key_down_ = -1;
-  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t) {
+  // A step waits while a passphrase is being checked (as a user waits for the answer).
+  while (script_next_ < script_.size() && have_snapshot_ && snapshot_.t >= script_[script_next_].t &&
+         !lock_.checking()) {
     const ScriptStep& step = script_[script_next_];
     if (step.action == "key") {
       // One key a frame, so that each press is seen.
@@ -428,6 +461,7 @@ int ViewerApp::run() {
   auto frame_start = std::chrono::steady_clock::now();
   while (glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
+    poll_lock();
     run_script();
     poll_build();
 
@@ -481,8 +515,9 @@ void ViewerApp::print_summary() const {
   // What the UI showed last, and the servo loop's timing (TimingReport).
   if (!session_) return;
   const StepOutput& out = snapshot_.out;
-  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view).
-  if (locked()) {
+  // A trainee's run says nothing of the scene or the interaction (the terminal may be in view), also
+  // after the instructor unlocked the panel.
+  if (trainee_) {
     std::printf("run: trainee mode, device %s, %.0f Hz servo, t %.3f s\n", options_.device.c_str(),
                 session_->run->rate_hz(), snapshot_.t);
   } else {

@@ -157,6 +157,8 @@ class ViewerApp {
   /// What the scene is drawn with: the panel's settings, or trainee_settings() of them when locked.
   [[nodiscard]] ViewSettings shown_settings() const;
   void submit_passphrase(const std::string& passphrase);
+  /// Collects the outcome of a passphrase check that finished (every frame).
+  void poll_lock();
   std::vector<std::string> sections_;  // the panel's sections drawn in the last frame
 
   // The course's study (study_panel.cpp): the study and its run for the participant, what the panel
@@ -178,6 +180,10 @@ class ViewerApp {
   std::vector<training::TrialResult> results_;
   [[nodiscard]] bool study_finished() const { return run_ && run_->finished(); }
   [[nodiscard]] bool trial_live() const;
+  /// The last trial problem in full (it may name the case): for the unlocked instructor's panel.
+  std::string problem_detail_;
+  /// A trial problem: its detail to problem_detail_, and to stderr unless in trainee mode.
+  void note_problem(const std::string& detail);
   void start_study(const std::string& participant);
   void begin_trial();
   void end_trial();

@@ -53,12 +53,12 @@ void check_arguments(const fs::path& file, const SessionInfo& info, const Record
 // existing recording is never lost by accident), replacing it only when `overwrite` is set. Stale
 // -wal/-shm files beside it belong to no database any more and are removed, or SQLite would replay
 // them into the new file.
-void claim_file(const fs::path& file, bool overwrite) {
+void claim_file(const fs::path& file, bool overwrite, mode_t mode) {
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw Error(file.string() + ": is a directory, not a recording file");
   if (overwrite && fs::exists(file, ec) && !fs::remove(file, ec))
     throw Error(file.string() + ": cannot replace the existing file: " + ec.message());
-  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
   if (fd < 0) {
     const int err = errno;
     if (err == EEXIST)
@@ -77,7 +77,9 @@ struct Recorder::Impl {
   Impl(const fs::path& path, const SessionInfo& session, const RecorderOptions& opts)
       : file(path),
         options(opts),
-        db_owner(io::create_database(path)),
+        db_owner(opts.hold_until_stop
+                     ? std::make_unique<io::Database>(fs::path(":memory:"), SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE)
+                     : io::create_database(path)),
         db(*db_owner),
         deriver(opts.soft_tissue_threshold, 1.0 / session.rate_hz) {}
 
@@ -89,6 +91,7 @@ struct Recorder::Impl {
   void finish(std::atomic<uint64_t>& written);
   void fail(const std::string& what, int rc);
   void checkpoint_if_due();
+  void write_held();
   bool external_pending();
 
   fs::path file;
@@ -126,7 +129,8 @@ struct Recorder::Impl {
 // Pragmas, schema and the session row, committed before the first sample so a crash right after
 // start still leaves a readable recording; then the statements the writer reuses.
 void Recorder::Impl::open_database(const SessionInfo& info) {
-  {
+  // A held recording is an in-memory database until stop() (write_held); the rest is the same.
+  if (!options.hold_until_stop) {
     io::Statement mode(db, "PRAGMA journal_mode=WAL");
     if (mode.step() != SQLITE_ROW || mode.text(0) != "wal")
       db.fail("cannot switch to WAL mode (the file system may not support it)");
@@ -140,6 +144,7 @@ void Recorder::Impl::open_database(const SessionInfo& info) {
   // WAL file is cut back to kWalSizeLimit when it restarts.
   db.exec("PRAGMA wal_autocheckpoint=0", "cannot turn off automatic checkpoints");
   db.exec("PRAGMA journal_size_limit=" + std::to_string(kWalSizeLimit), "cannot limit the WAL size");
+  if (options.hold_until_stop && options.max_bytes == 0) options.max_bytes = kHeldMaxBytes;
   if (options.max_bytes > 0) {
     int64_t page_size = 4096;
     {
@@ -327,9 +332,35 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
   update_event.reset();
   begin_tx.reset();
   commit_tx.reset();
-  if (db.try_exec("PRAGMA wal_checkpoint(TRUNCATE)") != SQLITE_OK && !failed)
+  if (options.hold_until_stop)
+    write_held();
+  else if (db.try_exec("PRAGMA wal_checkpoint(TRUNCATE)") != SQLITE_OK && !failed)
     fail("cannot checkpoint the WAL", SQLITE_ERROR);
   if (db.close() != SQLITE_OK && !failed) fail("cannot close the database", SQLITE_ERROR);
+}
+
+// A held recording goes to its file in one piece (SQLite's online backup of the in-memory database
+// into the claimed, empty file): what was committed, also the prefix of a recording that failed.
+void Recorder::Impl::write_held() {
+  try {
+    const std::unique_ptr<io::Database> out_owner = io::create_database(file);
+    io::Database& out = *out_owner;
+    sqlite3_backup* backup = sqlite3_backup_init(out.get(), "main", db.get(), "main");
+    if (backup == nullptr) out.fail("cannot write the held recording");
+    const int step = sqlite3_backup_step(backup, -1);
+    const int rc = sqlite3_backup_finish(backup);
+    if (step != SQLITE_DONE || rc != SQLITE_OK) out.fail("cannot write the held recording");
+    if (out.close() != SQLITE_OK) throw Error(file.string() + ": cannot close the written recording");
+  } catch (const Error& e) {
+    const bool first = !failed;
+    failed = true;
+    if (first) spdlog::error("recorder: {}", e.what());
+    std::lock_guard lock(status_mutex);
+    if (first) {
+      status.ok = false;
+      status.message = e.what();
+    }
+  }
 }
 
 // Between batches, every 250 ms of wall or sample time: a PASSIVE checkpoint on the writer's own
@@ -338,6 +369,7 @@ void Recorder::Impl::finish(std::atomic<uint64_t>& written) {
 // batch restarts the WAL. Its fsync stalls the writer, not the servo loop (the queue holds 20 s). A
 // checkpoint that cannot finish (a reader holds a snapshot) is logged once and retried at the next.
 void Recorder::Impl::checkpoint_if_due() {
+  if (options.hold_until_stop) return;  // in memory: nothing to copy until stop()
   const auto now = Clock::now();
   if (now - checkpointed < kCheckpointInterval && last_t - checkpoint_t < kCheckpointSampleSeconds) return;
   int log_frames = 0;
@@ -379,7 +411,8 @@ void Recorder::Impl::fail(const std::string& what, int rc) {
 
 Recorder::Recorder(const fs::path& file, const SessionInfo& info, const RecorderOptions& options) {
   check_arguments(file, info, options);
-  claim_file(file, options.overwrite);
+  // A held recording's file is owner-only: it will hold what the session hid while it ran.
+  claim_file(file, options.overwrite, options.hold_until_stop ? 0600 : 0644);
   try {
     impl_ = std::make_unique<Impl>(file, info, options);
     impl_->open_database(info);

@@ -374,7 +374,7 @@ void add_object_parts(Model& model, const SceneDesc& scene, std::size_t i, const
       part_report.cache_hit = true;
     } else {
       cached = build_part(b, part, lesion, scene, name, options, part_ls);
-      if (cache) cache->store(key, *cached);
+      if (cache && (whole || options.cache_lesion_parts)) cache->store(key, *cached);
     }
 
     // Leaf materials, then a check that the tree is usable.

@@ -31,11 +31,50 @@ std::string required_text(const Reader& r, const Fields& f, std::string_view key
 std::string identifier(const Reader& r, const YAML::Node& node, const std::string& path) {
   std::string value = r.text(node, path);
   if (!valid_identifier(value))
-    r.fail(
-        node, path,
-        fmt::format("'{}' is not a valid name: 1-64 letters, digits, '.', '_' or '-', not starting with '.'",
-                    value));
+    r.fail(node, path, fmt::format("'{}' is not a valid name: {}", value, kIdentifierRule));
   return value;
+}
+
+// Top-level folders of the system (the Filesystem Hierarchy Standard's, and the kernel's virtual ones)
+// that a records folder may never be in, and the folders below them made for data.
+constexpr std::string_view kSystemFolders[] = {"bin",    "boot", "dev", "etc",  "lib", "lib32", "lib64",
+                                               "libx32", "proc", "run", "sbin", "sys", "usr",   "var"};
+constexpr std::string_view kDataFolders[] = {"/var/tmp", "/var/lib", "/run/media"};
+
+// The folder a course's `records` names, as the system will find it: absolute, `..` and the symbolic
+// links that exist resolved, no trailing separator.
+std::filesystem::path resolve_folder(const std::filesystem::path& folder) {
+  std::error_code ec;
+  std::filesystem::path out = std::filesystem::absolute(folder, ec);
+  if (ec) out = folder;
+  std::filesystem::path canonical = std::filesystem::weakly_canonical(out, ec);
+  out = ec ? out.lexically_normal() : canonical.lexically_normal();
+  while (out.has_relative_path() && !out.has_filename()) out = out.parent_path();
+  return out;
+}
+
+// True when `folder` is `base` or lies below it (both absolute and normal).
+bool within(const std::filesystem::path& folder, const std::filesystem::path& base) {
+  const std::filesystem::path rel = folder.lexically_relative(base);
+  return !rel.empty() && *rel.begin() != "..";
+}
+
+// Why `folder` (resolve_folder's) cannot hold study databases; empty when it can.
+std::string records_problem(const std::filesystem::path& folder) {
+  std::vector<std::string> parts;
+  for (const auto& part : folder.relative_path()) parts.push_back(part.string());
+  if (parts.empty()) return "the root folder";
+  // Below a folder made for data: a folder of its own there, not the shared folder itself.
+  for (const std::string_view data : kDataFolders) {
+    if (!within(folder, data)) continue;
+    if (folder == std::filesystem::path(data)) return fmt::format("the shared folder {}", data);
+    return {};
+  }
+  if (std::find(std::begin(kSystemFolders), std::end(kSystemFolders), parts.front()) !=
+      std::end(kSystemFolders))
+    return fmt::format("inside the system folder /{}", parts.front());
+  if (parts.size() == 1) return fmt::format("the top-level folder /{}", parts.front());
+  return {};
 }
 
 bool ends_with(std::string_view s, std::string_view suffix) {
@@ -99,21 +138,34 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
       course.study = study;
     }
 
-    // Where the databases go, and this station.
-    course.records = base / required_text(r, f, "records");
+    // Where the databases go: a folder of its own, never the root, a top-level folder or a system
+    // folder (after `..` and the symbolic links that exist are resolved).
+    const std::string records = required_text(r, f, "records");
+    course.records = base / records;
+    {
+      const std::filesystem::path resolved = resolve_folder(course.records);
+      if (const std::string problem = records_problem(resolved); !problem.empty())
+        r.fail(f.get("records"), "records",
+               fmt::format("'{}' is {} ({}); give the study databases a folder of their own, e.g. `records: "
+                           "records` beside the course file",
+                           records, problem, resolved.string()));
+    }
     course.station = identifier(r, f.require("station"), "station");
 
-    // Participants allowed (optional): unique identifiers.
+    // Participants allowed (optional): identifiers, then the first repeated one (first_repeated:
+    // one hash-set lookup each, so a list of 100 000 is checked in linear time).
     if (const auto list = f.get("participants"); list.IsDefined() && !list.IsNull()) {
       r.require_sequence(list, "participants");
-      for (std::size_t i = 0; i < list.size(); ++i) {
-        const std::string path = io::indexed("participants", i);
-        std::string id = identifier(r, list[i], path);
-        if (std::find(course.participants.begin(), course.participants.end(), id) !=
-            course.participants.end())
-          r.fail(list[i], path, fmt::format("participant '{}' is listed twice", id));
-        course.participants.push_back(std::move(id));
+      std::vector<YAML::Node> items;
+      items.reserve(list.size());
+      for (const YAML::Node& item : list) {
+        course.participants.push_back(
+            identifier(r, item, io::indexed("participants", items.size())));
+        items.push_back(item);
       }
+      if (const std::size_t i = first_repeated(course.participants); i < items.size())
+        r.fail(items[i], io::indexed("participants", i),
+               fmt::format("participant '{}' is listed twice", course.participants[i]));
     }
 
     // The instructor passphrase's hash, decoded now so a bad one is found before the class.

@@ -73,7 +73,10 @@ PassphraseHash parse_passphrase_hash(std::string_view encoded) {
   if (h.iterations < kPassphraseMinIterations || h.iterations > kPassphraseMaxIterations)
     throw Error(fmt::format("iteration count {} is outside [{}, {}]", h.iterations, kPassphraseMinIterations,
                             kPassphraseMaxIterations));
-  // Salt and hash in hex.
+  // Salt and hash in hex; the salt's length is bounded before it is decoded.
+  if (fields[2].size() > 2 * kPassphraseMaxSaltBytes)
+    throw Error(fmt::format("the salt has {} bytes; at most {} are allowed", fields[2].size() / 2,
+                            kPassphraseMaxSaltBytes));
   if (!from_hex(fields[2], h.salt)) throw Error("the salt is not hexadecimal");
   if (h.salt.size() < kMinSaltBytes)
     throw Error(fmt::format("the salt has {} bytes; at least {} are needed", h.salt.size(), kMinSaltBytes));

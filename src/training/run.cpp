@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -28,6 +29,7 @@
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/training/course.hpp"
 #include "cariesim/training/scores.hpp"
 #include "training/study_schema.hpp"
 
@@ -44,18 +46,19 @@ struct StudyRun::Db {
 
 namespace {
 
-constexpr std::size_t kMaxParticipantLength = 64;
+// A name that becomes part of the recordings' file names (participant, study): the one rule of
+// valid_identifier (course.hpp), so no path can be built from anything else.
+void check_name(std::string_view what, const std::string& value, std::string_view example) {
+  if (value.empty()) throw Error(fmt::format("{}: required{}", what, example));
+  if (!valid_identifier(value))
+    throw Error(fmt::format("{} '{}': not a valid name ({})", what, value, kIdentifierRule));
+}
 
-// A participant id: letters, digits, '-', '_', '.'; not empty, at most 64 characters.
-void check_participant(const std::string& id) {
-  if (id.empty()) throw Error("participant: required (e.g. --participant P01)");
-  if (id.size() > kMaxParticipantLength)
-    throw Error(fmt::format("participant '{}': longer than {} characters", id, kMaxParticipantLength));
-  for (const char c : id) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.';
-    if (!ok)
-      throw Error(fmt::format("participant '{}': only letters, digits, '-', '_' and '.' are allowed", id));
-  }
+// Creates `file` empty and owner-only when it does not exist (SQLite then fills it, and gives its -wal
+// and -shm files the same mode).
+void create_private_file(const fs::path& file) {
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd >= 0) ::close(fd);
 }
 
 // This machine's name.
@@ -160,12 +163,14 @@ struct TrialWrite {
 // The results into the trial's row and the scores table (inside the caller's transaction).
 void write_results(Database& db, const TrialWrite& w) {
   Statement update(
-      db, "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ? WHERE id = ?");
+      db,
+      "UPDATE trials SET ended_at = ?, recording = NULLIF(?, ''), answers = ?, scores = ?, seed = ? WHERE id = ?");
   update.bind(0, w.ended_at);
   update.bind(1, w.recording);
   update.bind(2, w.answers_json);
   update.bind(3, w.scores_json);
-  update.bind(4, w.row);
+  update.bind(4, w.seed);  // a trainee's trial row holds kSeedNotWritten until now
+  update.bind(5, w.row);
   if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
   Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
   for (const Score& s : w.scores) {
@@ -304,7 +309,8 @@ bool merge_pending(Database& db, const fs::path& database, double lock_wait) {
           const int rc = row.step();
           if (rc != SQLITE_ROW && rc != SQLITE_DONE) db.fail("cannot read trial " + std::to_string(w.row));
           const bool same = rc == SQLITE_ROW && row.text(0) == w.station && row.text(1) == w.participant &&
-                            row.text(2) == w.study && row.integer(3) == w.trial && row.integer(4) == w.seed &&
+                            row.text(2) == w.study && row.integer(3) == w.trial &&
+                            (row.integer(4) == w.seed || row.integer(4) == kSeedNotWritten) &&
                             row.text(5) == w.started_at;
           if (!same) {
             spdlog::warn("{}: trial row {} of {} is not the trial these results belong to (left in place)",
@@ -437,7 +443,8 @@ fs::path pending_folder(const fs::path& database) { return fs::path(database.str
 
 StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), options_(std::move(options)) {
   // The options, then the database, then the seed.
-  check_participant(options_.participant);
+  check_name("participant", options_.participant, " (e.g. --participant P01)");
+  check_name("study", study_.name, "");
   if (options_.station.empty()) options_.station = host_name();
   if (options_.recordings.empty()) options_.recordings = options_.database.stem().string() + "-recordings";
   if (options_.database.empty()) throw Error("study database: required (e.g. --out class.db)");
@@ -447,6 +454,7 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
   std::error_code ec;
   if (const fs::path dir = options_.database.parent_path(); !dir.empty() && !fs::is_directory(dir, ec))
     throw Error(fmt::format("{}: the folder {} does not exist", options_.database.string(), dir.string()));
+  if (options_.private_files && !fs::exists(options_.database, ec)) create_private_file(options_.database);
   db_ = std::make_unique<Db>();
   db_->owner = open_study_database(options_.database, options_.lock_wait);
   merge_pending(db_->db(), options_.database, options_.lock_wait);
@@ -487,7 +495,8 @@ const TrialSetup& StudyRun::begin_trial() {
         insert.bind(2, study_.name);
         insert.bind(3, std::string(study_kind_name(study_.kind)));
         insert.bind(4, int64_t{current_ + 1});
-        insert.bind(5, static_cast<int64_t>(setup_.seed));
+        // In trainee mode the seed (it rebuilds the case) waits for the trial's end.
+        insert.bind(5, options_.hide_case_while_running ? kSeedNotWritten : static_cast<int64_t>(setup_.seed));
         insert.bind(6, started_at_);
         if (insert.step() != SQLITE_DONE) db.fail("cannot write the trial row");
         row_ = sqlite3_last_insert_rowid(db.get());
@@ -513,11 +522,15 @@ const TrialSetup& StudyRun::begin_trial() {
   } catch (const io::LockedError& e) {
     throw Error(fmt::format("{} (for {} s; the trial did not begin)", e.what(), options_.lock_wait));
   }
-  std::error_code ec;
-  fs::create_directories(recording_path_.parent_path(), ec);
-  if (ec)
-    throw Error(fmt::format("{}: cannot create the recordings folder: {}",
-                            recording_path_.parent_path().string(), ec.message()));
+  if (options_.private_files) {
+    create_study_folder(recording_path_.parent_path());
+  } else {
+    std::error_code ec;
+    fs::create_directories(recording_path_.parent_path(), ec);
+    if (ec)
+      throw Error(fmt::format("{}: cannot create the recordings folder: {}",
+                              recording_path_.parent_path().string(), ec.message()));
+  }
   in_trial_ = true;
   return setup_;
 }
@@ -654,10 +667,42 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   return result;
 }
 
-void StudyRun::abandon_trial() {
+void StudyRun::abandon_trial(const std::string& reason) {
   if (!in_trial_) throw Error(fmt::format("study {}: no trial has begun", study_.name));
+  // The reason and the seed into the row (ended_at stays NULL); a failure here is only logged.
+  if (!reason.empty() || options_.hide_case_while_running) {
+    try {
+      io::JsonWriter w;
+      w.begin_object();
+      if (!reason.empty()) w.field("error", reason);
+      w.end_object();
+      Database& db = db_->db();
+      Statement update(db, reason.empty() ? "UPDATE trials SET seed = ? WHERE id = ?"
+                                          : "UPDATE trials SET seed = ?, answers = ? WHERE id = ?");
+      update.bind(0, static_cast<int64_t>(setup_.seed));
+      if (!reason.empty()) update.bind(1, w.str());
+      update.bind(reason.empty() ? 1 : 2, row_);
+      if (update.step() != SQLITE_DONE) db.fail("cannot note why the trial was abandoned");
+    } catch (const Error& e) {
+      spdlog::error("study {}: {}", study_.name, e.what());
+    }
+  }
   in_trial_ = false;
   ++current_;
+}
+
+void create_study_folder(const fs::path& folder) {
+  // The parents as they come, then the folder itself created 0700 (no moment with a wider mode).
+  std::error_code ec;
+  if (fs::is_directory(folder, ec)) return;
+  if (const fs::path parent = folder.parent_path(); !parent.empty()) {
+    fs::create_directories(parent, ec);
+    if (ec) throw Error(fmt::format("{}: cannot create the folder: {}", parent.string(), ec.message()));
+  }
+  if (::mkdir(folder.c_str(), 0700) != 0 && errno != EEXIST)
+    throw Error(fmt::format("{}: cannot create the folder: {}", folder.string(), std::strerror(errno)));
+  if (!fs::is_directory(folder, ec))
+    throw Error(fmt::format("{}: exists and is not a folder", folder.string()));
 }
 
 }  // namespace cariesim::training

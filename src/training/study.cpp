@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <charconv>
 #include <random>
 #include <set>
 
@@ -13,6 +15,7 @@
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
+#include "cariesim/training/course.hpp"
 #include "training/builtin_studies.hpp"
 #include "training/draws.hpp"
 #include "training/study_schema.hpp"
@@ -28,7 +31,6 @@ namespace {
 constexpr int kMaxTrials = 1000;                        // trials per participant a study may ask for
 constexpr double kMaxLength = 1000.0;                   // mm, largest size of anything a study places
 constexpr double kMaxTimeLimit = 3600.0;                // s, longest diagnosis case
-constexpr uint64_t kMaxSeed = (uint64_t{1} << 63) - 1;  // seeds are stored in SQLite's signed INTEGER
 
 // Slider bounds a tuning parameter may have (the engine's check_material accepts these).
 struct ParamBounds {
@@ -361,10 +363,19 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   s.origin = origin.string();
   s.source_hash = BuildKey().add(std::string(yaml)).value();
   if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, f.sub("format"), 1, 1);
-  if (const auto n = f.get("name"); n.IsDefined()) s.name = r.text(n, f.sub("name"));
-  if (s.name.empty()) {
+  // The name becomes part of file names (the trials' recordings): the station-name rule.
+  if (const auto n = f.get("name"); n.IsDefined()) {
+    s.name = r.text(n, f.sub("name"));
+    if (!valid_identifier(s.name))
+      r.fail(n, f.sub("name"), fmt::format("'{}' is not a valid study name: {}", s.name, kIdentifierRule));
+  } else {
     const std::string o = origin.string();
     s.name = o.starts_with("builtin:") ? o.substr(8) : origin.stem().string();
+    if (!valid_identifier(s.name))
+      throw Error(
+          fmt::format("{}: name: the file's name '{}' is not a valid study name ({}); give the study "
+                      "a `name:`",
+                      origin.string(), s.name, kIdentifierRule));
   }
   if (const auto n = f.get("description"); n.IsDefined()) s.description = r.text(n, f.sub("description"));
   const std::size_t kind =
@@ -373,17 +384,8 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   if (const auto n = f.get("trials"); n.IsDefined())
     s.trials = static_cast<int>(r.integer_in(n, f.sub("trials"), 1, kMaxTrials));
   if (const auto n = f.get("seed"); n.IsDefined()) {
-    const std::string text = r.text(n, f.sub("seed"));
-    uint64_t seed = 0;
-    std::size_t used = 0;
-    try {
-      seed = std::stoull(text, &used, 10);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != text.size() || text.starts_with('-') || seed > kMaxSeed)
-      r.fail(n, f.sub("seed"), fmt::format("expected an integer in [0, {}]", kMaxSeed));
-    s.seed = seed;
+    s.seed = parse_seed(r.text(n, f.sub("seed")));
+    if (!s.seed) r.fail(n, f.sub("seed"), fmt::format("expected an integer in [0, {}]", kMaxSeed));
   }
 
   // Only the section of the study's kind may be there, and it must be for tuning and diagnosis.
@@ -438,6 +440,17 @@ std::string_view builtin_study_yaml(std::string_view name) {
   for (std::size_t i = 0; i < kBuiltinStudyCount; ++i)
     if (kBuiltinStudies[i].name == name) return kBuiltinStudies[i].yaml;
   return {};
+}
+
+std::optional<uint64_t> parse_seed(std::string_view text) {
+  // Decimal digits only (at most 19: kMaxSeed has 19), the whole text used, then the range.
+  if (text.empty() || text.size() > 19 ||
+      !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  uint64_t value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value, 10);
+  if (ec != std::errc() || end != text.data() + text.size() || value > kMaxSeed) return std::nullopt;
+  return value;
 }
 
 uint64_t trial_seed(uint64_t study_seed, int index) {

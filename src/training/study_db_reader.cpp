@@ -136,9 +136,11 @@ std::vector<StudyTrial> read_study_database(const fs::path& file) {
       if (t.trial < 1)
         throw Error(at("trial") + ": " + std::to_string(t.trial) + " is not a trial number (from 1)");
       t.seed = integer_column(rows, 6, at("seed"));
-      if (t.seed < 0) throw Error(at("seed") + ": " + std::to_string(t.seed) + " is not a trial seed (>= 0)");
       t.started_at = text_column(rows, 7, at("started_at"));
       if (!rows.is_null(8)) t.ended_at = text_column(rows, 8, at("ended_at"));
+      // A trainee's trial that never ended keeps kSeedNotWritten (run.hpp); any other seed is >= 0.
+      if (t.seed < 0 && !(t.seed == kSeedNotWritten && !t.ended_at))
+        throw Error(at("seed") + ": " + std::to_string(t.seed) + " is not a trial seed (>= 0)");
       by_id[t.id] = trials.size();
       trials.push_back(std::move(t));
     }

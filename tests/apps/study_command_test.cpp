@@ -87,6 +87,45 @@ TEST_F(StudyCommand, ErrorsNameTheFileAndPlace) {
                    dir_);
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("participant 'P 1'"), std::string::npos) << r.err;
+  // A study name that would take the recordings out of their folder (`study check` accepted it).
+  for (const std::string name : {"../../../../tmp/x", "/tmp/x"}) {
+    std::ofstream(dir_ / "escape.yaml") << "name: " << name << "\nkind: boundary-shapes\n";
+    r = run_cariesim("study check '" + (dir_ / "escape.yaml").string() + "'", dir_);
+    EXPECT_EQ(r.status, 2) << name;
+    EXPECT_NE(r.err.find("escape.yaml:1:7: name: '" + name + "' is not a valid study name"),
+              std::string::npos)
+        << r.err;
+  }
+}
+
+// `--seed -1` and `--seed 99999999999999999999` became 2^64 - 1 without a word (CLI11 wraps them):
+// every --seed is refused unless it is a seed in [0, 2^63 - 1], naming the option, before anything runs.
+TEST_F(StudyCommand, SeedsOutOfRangeAreRefusedEverywhere) {
+  const fs::path answers = dir_ / "answers.yaml";
+  std::ofstream(answers) << "trials:\n  - shapes: [square, circle, triangle]\n";
+  std::ofstream(dir_ / "course.yaml")
+      << "course: C\nstudy: boundary-shapes\nrecords: records\nstation: s1\ninstructor: "
+         "pbkdf2-sha256$100000$000102030405060708090a0b0c0d0e0f$"
+         "c8d122ecdb9477cd48a6b1750c5985c0b8b05158d040d20517ccdb49865de436\n";
+  for (const std::string seed :
+       {"-1", "99999999999999999999", "18446744073709551615", "9223372036854775808", "0x10", "1e3"}) {
+    SCOPED_TRACE(seed);
+    CommandResult r = run_cariesim(
+        "study run '" + (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
+            "' --participant P01 --answers '" + answers.string() + "' --out '" + (dir_ / "s.db").string() +
+            "' --seed " + seed,
+        dir_);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is not a seed"), std::string::npos) << r.err;
+    r = run_cariesim(
+        "run --course '" + (dir_ / "course.yaml").string() + "' --participant P01 --seed " + seed, dir_);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is not a seed"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "s.db")) << "nothing ran";
+  EXPECT_FALSE(fs::exists(dir_ / "records")) << "no station started";
 }
 
 }  // namespace

@@ -258,6 +258,44 @@ TEST(Recorder, EventsFromTheUiThreadAreWritten) {
   EXPECT_EQ(it->t, 0.25);
 }
 
+// Trainee mode keeps a trial's recording in memory (RecorderOptions::hold_until_stop): while it runs
+// the file is claimed but empty and owner-only, with no -wal beside it, so nothing at the station reads
+// the session's lesion parameters or the samples' `lesion` column off it; stop() writes it whole.
+// Before, every recording was on disk from its first batch (its session row at once).
+TEST(Recorder, AHeldRecordingReachesTheDiskOnlyWhenItStops) {
+  test::ScratchDir dir("held");
+  const auto file = dir / "held.db";
+  RecorderOptions options;
+  options.hold_until_stop = true;
+  Recorder recorder(file, synthetic_session(1000.0), options);
+  recorder.start();
+  ASSERT_TRUE(push_range(recorder, 0, 500, 1000.0));
+  recorder.record_event({0.25, "param", "mu_s", 0.42, 0, 0.0});
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (recorder.written() < 500 && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(recorder.written(), 500u) << "the batches were committed (in memory)";
+  EXPECT_EQ(std::filesystem::file_size(file), 0u) << "nothing of the session on disk while it runs";
+  EXPECT_FALSE(std::filesystem::exists(file.string() + "-wal"));
+  EXPECT_EQ(std::filesystem::status(file).permissions() &
+                (std::filesystem::perms::group_all | std::filesystem::perms::others_all),
+            std::filesystem::perms::none)
+      << "owner-only";
+  EXPECT_THROW((void)load_recording(file), Error);
+  recorder.stop();
+  EXPECT_TRUE(recorder.status().ok) << recorder.status().message;
+
+  const Recording recording = load_recording(file);
+  ASSERT_EQ(recording.samples.size(), 500u);
+  for (std::size_t i = 0; i < recording.samples.size(); ++i)
+    ASSERT_EQ(recording.samples[i].t, synthetic_sample(i, 1000.0).t) << i;
+  EXPECT_EQ(recording.info.parameters, synthetic_session(1000.0).parameters);
+  EXPECT_FALSE(recording.info.ended_at.empty());
+  EXPECT_EQ(std::count_if(recording.events.begin(), recording.events.end(),
+                          [](const RecordedEvent& e) { return e.kind == "param"; }),
+            1);
+}
+
 TEST(Recorder, StopIsIdempotentAndWorksWithoutStart) {
   test::ScratchDir dir("stop");
   Recorder recorder(dir / "stop.db", synthetic_session(1000.0));

@@ -191,6 +191,40 @@ TEST_F(BuildTest, CacheHitGivesTheSameTrees) {
   EXPECT_FALSE(uncached.parts[0].cache_hit);
 }
 
+// Trainee mode (BuildOptions::cache_lesion_parts false) leaves no part of an object that carries a
+// lesion in the tree cache (its healthy part is the tooth minus the lesion, its caries part the
+// lesion): only the lesion-free object's tree is stored, and a second build misses on exactly those
+// parts. Before, every part went into the cache, readable at the station.
+TEST_F(BuildTest, TraineeBuildsStoreNoPartOfAnObjectWithLesions) {
+  std::string text = block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}");
+  text.insert(
+      text.find("lesions:"),
+      "  - name: plain\n    shape: {type: cuboid, size: [2, 2, 2]}\n    pose: {position: [20, 0, 0]}\n"
+      "    tissue: enamel\n    tree: {tolerance: 0.1, max_radius: 0.8}\n");
+  const SceneDesc scene = parse_scene(text, "b.yaml");
+  const auto entries = [this] {
+    std::size_t n = 0;
+    for (const auto& entry : fs::directory_iterator(cache_)) n += entry.path().extension() == ".tree" ? 1 : 0;
+    return n;
+  };
+  BuildOptions trainee = options();
+  trainee.cache_lesion_parts = false;
+  BuildReport first;
+  const Model model = build_model(scene, trainee, &first);
+  ASSERT_EQ(model.objects.size(), 3u);
+  EXPECT_EQ(model.objects[2].name, "plain");
+  EXPECT_EQ(entries(), 1u) << "only the lesion-free object's tree";
+  BuildReport second;
+  (void)build_model(scene, trainee, &second);
+  ASSERT_EQ(second.parts.size(), 3u);
+  EXPECT_FALSE(second.parts[0].cache_hit) << second.parts[0].name;
+  EXPECT_FALSE(second.parts[1].cache_hit) << second.parts[1].name;
+  EXPECT_TRUE(second.parts[2].cache_hit) << second.parts[2].name;
+  // The default stores every part.
+  (void)build_model(scene, options());
+  EXPECT_EQ(entries(), 3u);
+}
+
 TEST_F(BuildTest, DeviationIsMeasuredOnRequest) {
   BuildOptions o = options();
   o.measure_deviation = true;

@@ -2,14 +2,17 @@
 // PBKDF2-HMAC-SHA256 hash checked against Python's hashlib (an independent implementation).
 #include "cariesim/training/course.hpp"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "cariesim/common/error.hpp"
 
@@ -134,11 +137,120 @@ TEST(Course, ErrorsNameFileLineColumnAndField) {
   std::string plain = course_yaml();
   plain.replace(plain.find(kKnownHash), std::string(kKnownHash).size(), "letmein");
   EXPECT_THAT(parse_error(plain), HasSubstr("6:13: instructor: expected pbkdf2-sha256$ITERATIONS"));
+  // A salt beyond kPassphraseMaxSaltBytes (20 MB was accepted), and a cost beyond the bound.
+  std::string long_salt = course_yaml();
+  long_salt.replace(long_salt.find("000102030405060708090a0b0c0d0e0f"), 32, std::string(2 * 65, 'a'));
+  EXPECT_THAT(parse_error(long_salt), HasSubstr("6:13: instructor: the salt has 65 bytes; at most 64"));
+  std::string huge_salt = course_yaml();
+  huge_salt.replace(huge_salt.find("000102030405060708090a0b0c0d0e0f"), 32, std::string(2 << 20, 'a'));
+  EXPECT_THAT(parse_error(huge_salt), HasSubstr("6:13: instructor: the salt has 1048576 bytes; at most 64"));
+  std::string costly = course_yaml();
+  costly.replace(costly.find("$100000$"), 8, "$10000000$");
+  EXPECT_THAT(parse_error(costly), HasSubstr("6:13: instructor: iteration count 10000000 is outside"));
+  // A records folder that is a system folder, the root or a top-level folder.
+  for (const char* records :
+       {"/", "/etc", "/proc/self", "../../../../../../../../../../etc", "/tmp", "/usr/share/x"}) {
+    std::string yaml = course_yaml();
+    yaml.replace(yaml.find("records: records"), 16, std::string("records: '") + records + "'");
+    EXPECT_THAT(parse_error(yaml),
+                HasSubstr("class/course.yaml:4:10: records: '" + std::string(records) + "' is "))
+        << records;
+  }
   // Syntax, and a document that is not a mapping.
   EXPECT_THAT(parse_error("course: [unclosed\n"), HasSubstr("class/course.yaml:"));
   EXPECT_THAT(parse_error("course: [unclosed\n"), HasSubstr("YAML syntax error"));
   EXPECT_NE(parse_error("- a list\n"), "");
   EXPECT_EQ(parse_error(course_yaml()), "");
+}
+
+// The course with `records: RECORDS`, parsed as class/course.yaml: its error ("" when it parses).
+std::string records_error(const std::string& records) {
+  std::string yaml = course_yaml();
+  yaml.replace(yaml.find("records: records"), 16, "records: '" + records + "'");
+  return parse_error(yaml);
+}
+
+// `records:` took any folder: `/`, `/etc`, `/proc/self` (the station then wrote its database there, or
+// failed at the first trial). It must be a folder of its own outside the system's folders, also when
+// `..` or a symbolic link leads there; the message names the field and what the folder resolved to.
+TEST(Course, RecordsMustBeAFolderOfItsOwnOutsideTheSystemFolders) {
+  EXPECT_THAT(records_error("/"), HasSubstr("records: '/' is the root folder (/)"));
+  EXPECT_THAT(records_error("/etc"), HasSubstr("records: '/etc' is inside the system folder /etc"));
+  EXPECT_THAT(records_error("/proc/self"), HasSubstr("inside the system folder /proc"));
+  EXPECT_THAT(records_error("/sys/kernel"), HasSubstr("inside the system folder /sys"));
+  EXPECT_THAT(records_error("/dev/shm/x"), HasSubstr("inside the system folder /dev"));
+  EXPECT_THAT(records_error("/var/log/cariesim"), HasSubstr("inside the system folder /var"));
+  EXPECT_THAT(records_error("/home"), HasSubstr("the top-level folder /home"));
+  EXPECT_THAT(records_error("/var/tmp"), HasSubstr("the shared folder /var/tmp"));
+  EXPECT_THAT(records_error("../../../../../../../../../../../../../../etc"),
+              HasSubstr("inside the system folder /etc"));
+  // A symbolic link to a system folder counts as that folder.
+  const fs::path dir = fs::temp_directory_path() / ("cariesim-records-link-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  fs::create_directory_symlink("/etc", dir / "records");
+  std::string yaml = course_yaml();
+  try {
+    (void)parse_course(yaml, dir / "course.yaml");
+    ADD_FAILURE() << "records through a link to /etc parses";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("records: 'records' is inside the system folder /etc (/etc)"));
+  }
+  fs::remove_all(dir);
+  // Folders of their own are taken: beside the course file, below /tmp, /var/lib, /media, a home.
+  for (const char* good :
+       {"records", "r/a/b", "/tmp/class/records", "/var/tmp/cariesim", "/var/lib/cariesim/records",
+        "/media/usb-stick/records", "/home/lab/records", "/srv/cariesim"})
+    EXPECT_EQ(records_error(good), "") << good;
+}
+
+// A participant ID that counts the equality comparisons made on it.
+struct CountedId {
+  std::string id;
+  static inline long comparisons = 0;
+  bool operator==(const CountedId& other) const {
+    ++comparisons;
+    return id == other.id;
+  }
+};
+struct CountedIdHash {
+  std::size_t operator()(const CountedId& c) const { return std::hash<std::string>{}(c.id); }
+};
+
+// Duplicates were found by comparing every pair (a course of 100 000 participants took minutes to
+// check: 5e9 comparisons). first_repeated makes one hash-set insertion per ID: for 100 000 distinct
+// IDs and a repeat at the end it compares a handful of times per ID, not 100 000 (counted, not timed).
+TEST(Course, RepeatedParticipantsAreFoundInLinearTime) {
+  constexpr std::size_t kCount = 100000;
+  std::vector<CountedId> ids;
+  for (std::size_t i = 0; i < kCount; ++i) ids.push_back({fmt::format("P{:06d}", i)});
+  ids.push_back({"P000017"});
+  CountedId::comparisons = 0;
+  const auto first_repeated = [](const std::vector<CountedId>& v) {
+    return cariesim::training::first_repeated<CountedId, CountedIdHash>(v);
+  };
+  EXPECT_EQ(first_repeated(ids), kCount);
+  EXPECT_LT(CountedId::comparisons, static_cast<long>(2 * kCount)) << "comparisons for " << kCount << " IDs";
+  ids.pop_back();
+  EXPECT_EQ(first_repeated(ids), kCount) << "all differ";
+  EXPECT_EQ(cariesim::training::first_repeated(std::vector<std::string>{"a", "b", "a", "b"}), 2u);
+  EXPECT_EQ(cariesim::training::first_repeated(std::vector<std::string>{}), 0u);
+}
+
+// A course file listing 100 000 participants parses (in about a second) and names a repeat at its line.
+TEST(Course, AHundredThousandParticipantsAreChecked) {
+  constexpr int kCount = 100000;
+  std::string list = "participants:\n";
+  list.reserve(kCount * 12);
+  for (int i = 0; i < kCount; ++i) list += fmt::format("  - P{:06d}\n", i);
+  const Course c = parse_course(course_yaml(list), "class/course.yaml");
+  ASSERT_EQ(c.participants.size(), static_cast<std::size_t>(kCount));
+  EXPECT_EQ(c.participants.back(), "P099999");
+  EXPECT_TRUE(c.allows("P054321"));
+  EXPECT_THAT(
+      parse_error(course_yaml(list + "  - P000017\n")),
+      HasSubstr(fmt::format("class/course.yaml:{}:5: participants[{}]: participant 'P000017' is listed "
+                            "twice",
+                            7 + kCount + 1, kCount)));
 }
 
 TEST(Course, AMissingFileIsNamed) {
@@ -186,6 +298,9 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
       "pbkdf2-sha256$1e5$0001020304050607$" + std::string(64, 'a'),
       "pbkdf2-sha256$99999999999$0001020304050607$" + std::string(64, 'a'),
       "pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a') + "$extra",
+      // A salt longer than kPassphraseMaxSaltBytes (it was unbounded), a cost above the bound.
+      "pbkdf2-sha256$100000$" + std::string(2 * 65, '0') + "$" + std::string(64, 'a'),
+      "pbkdf2-sha256$2000001$0001020304050607$" + std::string(64, 'a'),
   };
   for (const std::string& h : bad) {
     EXPECT_THROW((void)parse_passphrase_hash(h), Error) << h;
@@ -193,6 +308,9 @@ TEST(Passphrase, RefusesShortPassphrasesAndMalformedHashes) {
   }
   EXPECT_NO_THROW(
       (void)parse_passphrase_hash("pbkdf2-sha256$100000$0001020304050607$" + std::string(64, 'a')));
+  EXPECT_NO_THROW((void)parse_passphrase_hash("pbkdf2-sha256$2000000$" + std::string(2 * 64, '0') + "$" +
+                                              std::string(64, 'a')))
+      << "the largest salt and cost";
 }
 
 // docs/instructors.md's example course file parses, and its hash is of the passphrase the page names.

@@ -138,6 +138,75 @@ TEST(StudyRun, RefusesWhatIsNotAStudyDatabase) {
   EXPECT_THROW(StudyRun(boundary_small(), options(dir / "x.db", "P 01")), Error);
 }
 
+// The names a recording's file name is built from are checked with the station-name rule, also for a
+// Study made in code (a study file's name is checked when it is read): nothing else reaches a path.
+TEST(StudyRun, BuildsPathsFromValidNamesOnly) {
+  const fs::path dir = test::scratch();
+  for (const std::string name : {"../../../../tmp/x", "/tmp/x", "..", "a b", ""}) {
+    Study study = boundary_small();
+    study.name = name;
+    try {
+      StudyRun run(study, options(dir / "x.db"));
+      ADD_FAILURE() << "study name '" << name << "' was taken";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("study"), std::string::npos) << e.what();
+    }
+  }
+  for (const std::string& participant :
+       std::vector<std::string>{"../P01", ".P01", "P/01", std::string(65, 'p')})
+    EXPECT_THROW(StudyRun(boundary_small(), options(dir / "x.db", participant)), Error) << participant;
+}
+
+// A new study database is the owner's only (0600, its -wal and -shm too), and so is a new recordings
+// folder (0700): the rows hold each trial's case once it ended. Before, both took the umask's modes
+// (0644, 0755).
+TEST(StudyRun, NewDatabasesAndRecordingFoldersAreOwnerOnly) {
+  const fs::path dir = test::scratch();
+  const fs::path db = dir / "class.db";
+  StudyRun run(boundary_small(), options(db));
+  run.begin_trial();
+  constexpr fs::perms kOthers = fs::perms::group_all | fs::perms::others_all;
+  EXPECT_EQ(fs::status(db).permissions() & kOthers, fs::perms::none);
+  for (const char* suffix : {"-wal", "-shm"}) {
+    if (fs::exists(db.string() + suffix)) {
+      EXPECT_EQ(fs::status(db.string() + suffix).permissions() & kOthers, fs::perms::none) << suffix;
+    }
+  }
+  EXPECT_EQ(fs::status(run.recording_path().parent_path()).permissions() & kOthers, fs::perms::none);
+  // create_study_folder: a new folder (and parents) 0700, an existing one as it is.
+  create_study_folder(dir / "records" / "a");
+  EXPECT_EQ(fs::status(dir / "records" / "a").permissions() & kOthers, fs::perms::none);
+  fs::create_directory(dir / "shared");
+  fs::permissions(dir / "shared", fs::perms::owner_all | fs::perms::group_all);
+  create_study_folder(dir / "shared");
+  EXPECT_EQ(fs::status(dir / "shared").permissions() & fs::perms::group_all, fs::perms::group_all);
+  std::ofstream(dir / "file") << "x";
+  EXPECT_THROW(create_study_folder(dir / "file"), Error);
+}
+
+// Trainee mode: while a trial runs its row holds no seed (the seed rebuilds the case: site,
+// severity, size, depth), so a trainee who reads the station's database learns nothing of it; the
+// seed is written when the trial ends, or is abandoned (with the reason, which may name lesions).
+TEST(StudyRun, InTraineeModeTheSeedIsWrittenOnlyWhenTheTrialEnds) {
+  const fs::path db = test::scratch() / "class.db";
+  RunOptions o = options(db);
+  o.hide_case_while_running = true;
+  StudyRun run(boundary_small(), o);
+  const TrialSetup& t = run.begin_trial();
+  EXPECT_EQ(test::query(db, "SELECT seed FROM trials")[0][0], std::to_string(kSeedNotWritten));
+  for (int c = 0; c < 3; ++c) run.name_shape(c, t.truth.shapes[static_cast<std::size_t>(c)]);
+  (void)run.end_trial("");
+  EXPECT_EQ(test::query(db, "SELECT seed FROM trials WHERE trial = 1")[0][0],
+            std::to_string(trial_seed(42, 0)));
+  run.begin_trial();
+  EXPECT_EQ(test::query(db, "SELECT seed FROM trials WHERE trial = 2")[0][0],
+            std::to_string(kSeedNotWritten));
+  run.abandon_trial("lesion1 misses tooth46");
+  const auto row = test::query(db, "SELECT seed, answers, ended_at FROM trials WHERE trial = 2");
+  EXPECT_EQ(row[0], (std::vector<std::string>{std::to_string(trial_seed(42, 1)),
+                                              R"({"error":"lesion1 misses tooth46"})", "NULL"}));
+}
+
 TEST(StudyRun, ChecksTheAnswers) {
   const fs::path dir = test::scratch();
   {

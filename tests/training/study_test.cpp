@@ -1,6 +1,7 @@
 // Study files (src/training/study.cpp) and trials made from seeds (src/training/trial.cpp).
 #include "cariesim/training/study.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -85,6 +86,16 @@ TEST(StudyParse, BadValuesAreLocatedAndNamed) {
       {"kind: boundary-shapes\nboundary:\n  shapes: [square, hexagon]\n", "3:20", "shapes[1]"},
       {"kind: boundary-shapes\nboundary:\n  shape_size: 120\n", "3:15", "does not fit"},
       {"kind: boundary-shapes\nseed: -4\n", "2:7", "seed"},
+      {"kind: boundary-shapes\nseed: 99999999999999999999\n", "2:7", "seed: expected an integer in [0, "},
+      {"kind: boundary-shapes\nseed: 9223372036854775808\n", "2:7", "seed: expected an integer in [0, "},
+      {"kind: boundary-shapes\nseed: 0x10\n", "2:7", "seed"},
+      // A name reaches the recordings' file names: the station-name rule (it escaped the folder).
+      {"name: ../../../../tmp/x\nkind: boundary-shapes\n", "1:7",
+       "name: '../../../../tmp/x' is not a valid study name"},
+      {"name: /tmp/x\nkind: boundary-shapes\n", "1:7", "name: '/tmp/x' is not a valid study name"},
+      {"name: ..\nkind: boundary-shapes\n", "1:7", "not a valid study name"},
+      {"name: a b\nkind: boundary-shapes\n", "1:7", "not a valid study name"},
+      {"name: ''\nkind: boundary-shapes\n", "1:7", "not a valid study name"},
       {"kind: boundary-shapes\ntuning:\n  target: roughness\n", "3:3", "no `tuning` section"},
       {"kind: tuning\ntuning:\n  target: roughness\n  parameters:\n    mu_s: [0.2, 7.0]\n", "5:17",
        "mu_s[1]"},
@@ -111,6 +122,27 @@ TEST(StudyParse, BadValuesAreLocatedAndNamed) {
     EXPECT_NE(msg.find("test.yaml:" + c.where + ":"), std::string::npos) << msg;
     EXPECT_NE(msg.find(c.what), std::string::npos) << msg;
   }
+}
+
+// Without `name:` the file's stem names the study, under the same rule.
+TEST(StudyParse, AFileNameThatIsNoValidStudyNameNeedsAName) {
+  EXPECT_THAT(
+      parse_error("kind: boundary-shapes\n", "dir/my study.yaml"),
+      ::testing::HasSubstr("dir/my study.yaml: name: the file's name 'my study' is not a valid study name"));
+  EXPECT_EQ(parse_error("name: mine\nkind: boundary-shapes\n", "dir/my study.yaml"), "");
+  EXPECT_EQ(parse_study("kind: boundary-shapes\n", "dir/my-study.yaml").name, "my-study");
+}
+
+// One rule for every seed written as text (study files, --seed): digits in [0, 2^63 - 1]; "-1" and
+// 20 digits used to wrap around to 2^64 - 1 on the command line.
+TEST(StudySeeds, ParseSeedTakesDecimalDigitsInRangeOnly) {
+  EXPECT_EQ(parse_seed("0"), std::optional<uint64_t>(0));
+  EXPECT_EQ(parse_seed("42"), std::optional<uint64_t>(42));
+  EXPECT_EQ(parse_seed("9223372036854775807"), std::optional<uint64_t>(kMaxSeed));
+  for (const char* bad :
+       {"", "-1", "+1", " 1", "1 ", "0x10", "1e3", "9223372036854775808", "18446744073709551615",
+        "99999999999999999999", "123456789012345678901234567890", "4.2"})
+    EXPECT_EQ(parse_seed(bad), std::nullopt) << bad;
 }
 
 TEST(StudyParse, AMissingFileNamesTheBuiltins) {

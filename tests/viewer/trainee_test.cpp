@@ -5,6 +5,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <optional>
+#include <string>
+
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/course.hpp"
 
@@ -34,17 +38,23 @@ TEST(TraineeSettings, DrawTissuesAndTheToolOnly) {
   EXPECT_TRUE(t.dents) << "soft-tissue dents show where the trainee presses, not lesions";
 }
 
+// A passphrase checked to its end (submit, then the worker's outcome).
+std::optional<bool> check(InstructorLock& lock, const std::string& passphrase) {
+  if (lock.submit(passphrase) != InstructorLock::Submitted::Checking) return std::nullopt;
+  return lock.wait();
+}
+
 TEST(InstructorLock, RefusesAndCountsWrongPassphrasesAndOpensForTheRightOne) {
   const std::string hash =
       cariesim::training::hash_passphrase("class of 2026", cariesim::training::kPassphraseMinIterations);
   InstructorLock lock(hash);
   EXPECT_TRUE(lock.can_unlock());
   EXPECT_FALSE(lock.unlocked());
-  EXPECT_FALSE(lock.try_unlock("class of 2025"));
-  EXPECT_FALSE(lock.try_unlock(""));
+  EXPECT_EQ(check(lock, "class of 2025"), std::optional<bool>(false));
+  EXPECT_EQ(check(lock, ""), std::optional<bool>(false));
   EXPECT_FALSE(lock.unlocked());
   EXPECT_EQ(lock.refused(), 2);
-  EXPECT_TRUE(lock.try_unlock("class of 2026"));
+  EXPECT_EQ(check(lock, "class of 2026"), std::optional<bool>(true));
   EXPECT_TRUE(lock.unlocked());
   EXPECT_EQ(lock.refused(), 2);
   lock.lock();
@@ -54,9 +64,68 @@ TEST(InstructorLock, RefusesAndCountsWrongPassphrasesAndOpensForTheRightOne) {
 TEST(InstructorLock, WithoutAHashNothingUnlocks) {
   InstructorLock lock;
   EXPECT_FALSE(lock.can_unlock());
-  EXPECT_FALSE(lock.try_unlock("anything at all"));
+  EXPECT_EQ(lock.submit("anything at all"), InstructorLock::Submitted::NoHash);
+  EXPECT_FALSE(lock.checking());
   EXPECT_FALSE(lock.unlocked());
   EXPECT_EQ(lock.refused(), 1);
+}
+
+// The check runs on a worker thread: submit() returns while PBKDF2 at the highest allowed cost
+// (about half a second) is still running, and poll() has nothing until it ends; a second passphrase
+// meanwhile is not started. Before, the window's thread itself ran the check and froze (2.7 s).
+TEST(InstructorLock, ChecksOffTheCallersThread) {
+  const std::string hash =
+      cariesim::training::hash_passphrase("class of 2026", cariesim::training::kPassphraseMaxIterations);
+  InstructorLock lock(hash);
+  EXPECT_EQ(lock.submit("class of 2025"), InstructorLock::Submitted::Checking);
+  EXPECT_TRUE(lock.checking());
+  EXPECT_EQ(lock.poll(), std::nullopt) << "the outcome is not there at once";
+  EXPECT_EQ(lock.submit("class of 2026"), InstructorLock::Submitted::Busy);
+  EXPECT_EQ(lock.wait(), std::optional<bool>(false));
+  EXPECT_FALSE(lock.checking());
+  EXPECT_EQ(lock.refused(), 1);
+  EXPECT_EQ(check(lock, "class of 2026"), std::optional<bool>(true));
+}
+
+// After three wrong passphrases in a row each try waits 1 s, 2 s, 4 s, ... (at most 300 s) from the end
+// of the last wrong one; a try within the wait is refused unchecked; the right one starts over. On the
+// lock's own clock, so the test never sleeps. Before, 40 guesses took 7 s.
+TEST(InstructorLock, BacksOffAfterThreeWrongPassphrases) {
+  const std::string hash =
+      cariesim::training::hash_passphrase("class of 2026", cariesim::training::kPassphraseMinIterations);
+  auto now = InstructorLock::Clock::now();
+  InstructorLock lock(hash, [&now] { return now; });
+  const auto advance = [&now](int ms) { now += std::chrono::milliseconds(ms); };
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(lock.wait_seconds(), 0.0) << i;
+    EXPECT_EQ(check(lock, "guess " + std::to_string(i)), std::optional<bool>(false));
+  }
+  EXPECT_DOUBLE_EQ(lock.wait_seconds(), 1.0);
+  EXPECT_EQ(lock.submit("guess 3"), InstructorLock::Submitted::Wait);
+  EXPECT_EQ(lock.deferred(), 1);
+  EXPECT_EQ(lock.refused(), 3) << "a deferred try is not checked";
+  advance(999);
+  EXPECT_EQ(lock.submit("guess 3"), InstructorLock::Submitted::Wait);
+  advance(1);
+  EXPECT_EQ(check(lock, "guess 3"), std::optional<bool>(false));
+  EXPECT_DOUBLE_EQ(lock.wait_seconds(), 2.0);
+  advance(2000);
+  EXPECT_EQ(check(lock, "guess 4"), std::optional<bool>(false));
+  EXPECT_DOUBLE_EQ(lock.wait_seconds(), 4.0);
+  EXPECT_EQ(lock.refused(), 5);
+  EXPECT_EQ(lock.deferred(), 2);
+  // The right passphrase after the wait opens and starts the count over.
+  advance(4000);
+  EXPECT_EQ(check(lock, "class of 2026"), std::optional<bool>(true));
+  lock.lock();
+  EXPECT_EQ(check(lock, "guess 5"), std::optional<bool>(false));
+  EXPECT_EQ(lock.wait_seconds(), 0.0);
+  // The schedule, and its cap.
+  EXPECT_EQ(InstructorLock::backoff_seconds(2), 0.0);
+  EXPECT_EQ(InstructorLock::backoff_seconds(3), 1.0);
+  EXPECT_EQ(InstructorLock::backoff_seconds(6), 8.0);
+  EXPECT_EQ(InstructorLock::backoff_seconds(40), InstructorLock::kMaxBackoff);
+  EXPECT_EQ(InstructorLock::backoff_seconds(1000000), InstructorLock::kMaxBackoff);
 }
 
 TEST(WindowScript, ParsesStepsAndNamesBadLines) {

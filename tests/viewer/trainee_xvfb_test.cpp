@@ -4,12 +4,16 @@
 // and answers, writing the study database. Screenshots stay in build/test-artifacts/viewer/trainee-*.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include "cariesim/scene/scene.hpp"
@@ -80,6 +84,21 @@ fs::path write_course(const fs::path& dir, const std::string& study) {
                                                              cariesim::training::kPassphraseMinIterations)
                       << "\n";
   return file;
+}
+
+// What a trainee's terminal may never show: the word "seed", a part count, lesion words, and the
+// given secrets (seeds, site names) anywhere in the run's stdout or stderr.
+void expect_terminal_tells_nothing(const RunResult& r, const std::vector<std::string>& secrets) {
+  for (const std::string& text : {r.out, r.err}) {
+    for (const char* word : {"seed", "collision parts", "lesion", "severe", "mild"})
+      EXPECT_THAT(text, Not(HasSubstr(word))) << word;
+    for (const std::string& secret : secrets) EXPECT_THAT(text, Not(HasSubstr(secret))) << secret;
+  }
+}
+
+// True when `p`'s mode gives no access to group or others.
+bool owner_only(const fs::path& p) {
+  return (fs::status(p).permissions() & (fs::perms::group_all | fs::perms::others_all)) == fs::perms::none;
 }
 
 class TraineeXvfb : public ::testing::Test {
@@ -267,14 +286,21 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
            60.0);
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   EXPECT_THAT(r.err, HasSubstr("trial 2 of 2 ended"));
+  // The terminal says nothing of the cases (it printed the study seed and "(7 collision parts)").
+  expect_terminal_tells_nothing(r, {std::to_string(cariesim::training::trial_seed(kSeed, 0)),
+                                    std::to_string(cariesim::training::trial_seed(kSeed, 1))});
   const fs::path json = json_of("trainee-study");
   EXPECT_EQ(json_query(json, "(d['study']['finished'], d['study']['ended'], d['study']['participant'])"),
             "(True, 2, 'P07')");
   EXPECT_EQ(json_query(json, "d['mode']"), "trainee");
 
-  // The study database: two ended trials of P07 at this station, their seeds and recordings.
+  // The study database: two ended trials of P07 at this station, their seeds and recordings; the
+  // folder, the database and the recordings' folder are the owner's only.
   const fs::path db = dir / "records" / "xvfb-1.db";
   ASSERT_TRUE(fs::exists(db));
+  EXPECT_TRUE(owner_only(dir / "records"));
+  EXPECT_TRUE(owner_only(db));
+  EXPECT_TRUE(owner_only(dir / "records" / "xvfb-1-recordings"));
   const std::vector<std::string> trials = sql_rows(db,
                                                    "SELECT participant, station, study, kind, seed, ended_at "
                                                    "IS NOT NULL, recording FROM trials ORDER BY id");
@@ -314,6 +340,7 @@ TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
            30.0);
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   EXPECT_THAT(r.err, HasSubstr("trial 1 of 1 ended"));
+  expect_terminal_tells_nothing(r, {"occlusal", "mesial", "tooth46", "tooth36"});
   const fs::path db = dir / "records" / "xvfb-1.db";
   const std::vector<std::string> rows = sql_rows(
       db,
@@ -353,6 +380,11 @@ TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
       sql_rows(dir / "records" / recording[0],
                "SELECT detail || ' ' || value FROM events WHERE kind = 'param' AND "
                "lesion = 0 AND t > 0.5 ORDER BY id");
+  // The recording, held in memory during the trial, reached the disk whole when it ended.
+  EXPECT_EQ(sql_rows(dir / "records" / recording[0],
+                     "SELECT json_array_length(parameters, '$.lesions') FROM session"),
+            (std::vector<std::string>{"1"}));
+  expect_terminal_tells_nothing(r, {std::to_string(cariesim::training::trial_seed(7, 0))});
   // In the order the trial asked for the levels (drawn from its seed), each level's values.
   const cariesim::training::TrialSetup setup = cariesim::training::make_trial(
       cariesim::training::load_study("tuning"), 0, cariesim::training::trial_seed(7, 0));
@@ -363,6 +395,139 @@ TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
     expected.push_back(mild ? "mu_s 0.2" : "mu_s 0.55");
   }
   EXPECT_EQ(params, expected);
+}
+
+// Whether a process still runs.
+bool alive(pid_t pid) { return pid > 0 && ::kill(pid, 0) == 0; }
+
+// Item 1 of the station's files: while a trainee's trial runs, nothing on disk names its case, and a
+// crash (kill -9) leaves nothing either. The trial (diagnosis-small's one-molar case without a time
+// limit, a fresh tree cache) is checked while it runs and again after the window is killed: the row's
+// seed is not written, the recording file is empty (its session parameters and the samples' lesion
+// column stay in memory), the cache holds no part of the tooth that carries the lesion, the records
+// are the owner's only, and the terminal told nothing. Before, the row had the seed from the start,
+// the recording filled as the trainee probed, the cache kept tooth46/healthy and tooth46/lesion1, and
+// the terminal printed the study seed and "(3 collision parts)".
+TEST_F(TraineeXvfb, ARunningOrKilledTrialLeavesNothingOfItsCaseOnDisk) {
+  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  const fs::path dir = scratch("killed");
+  const fs::path examples = fs::path(CARIESIM_SOURCE_DIR) / "studies" / "examples";
+  std::string study = read_text(examples / "diagnosis-small.yaml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"scene: one-molar.yaml", "scene: '" + (examples / "one-molar.yaml").string() + "'"},
+           {"time_limit: 10.0", "time_limit: 0"},
+           {"seed: 7\n", ""}}) {
+    const std::size_t at = study.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    study.replace(at, from.size(), to);
+  }
+  std::ofstream(dir / "study.yaml") << study;
+  const fs::path course = write_course(dir, "study.yaml");
+  constexpr uint64_t kSeed = 987654321;
+  const std::string seed_text = std::to_string(cariesim::training::trial_seed(kSeed, 0));
+
+  // The window in the background under xvfb-run (its pid in a file); `done` appears when xvfb-run
+  // has returned.
+  const fs::path cache = dir / "cache", out = dir / "run.out", err = dir / "run.log", pid_file = dir / "pid",
+                 done = dir / "done";
+  std::ofstream(dir / "run.sh") << "export CARIESIM_CACHE_DIR='" << cache.string() << "' OUT='"
+                                << out.string() << "' ERR='" << err.string() << "' PID='" << pid_file.string()
+                                << "'\n"
+                                << "timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' sh -c "
+                                   "'\"$0\" \"$@\" >\"$OUT\" 2>\"$ERR\" & echo $! >\"$PID\"; wait' '"
+                                << CARIESIM_EXE << "' run --course '" << course.string()
+                                << "' --participant P05 --seed " << kSeed << " --device null --no-realtime\n"
+                                << "touch '" << done.string() << "'\n";
+  ASSERT_EQ(shell("sh '" + (dir / "run.sh").string() + "' >/dev/null 2>&1 &"), 0);
+  // The trial's session records once its scene is built: wait for its recording file, then let the
+  // trainee probe for a while (the recorder commits every 50 ms).
+  const fs::path recordings = dir / "records" / "xvfb-1-recordings";
+  fs::path recording;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(600);
+  while (recording.empty() && std::chrono::steady_clock::now() < give_up && !fs::exists(done)) {
+    std::error_code ec;
+    if (fs::is_directory(recordings, ec))
+      for (const auto& entry : fs::directory_iterator(recordings, ec))
+        if (entry.path().extension() == ".db") recording = entry.path();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  ASSERT_FALSE(recording.empty()) << read_text(err);
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  const pid_t pid = static_cast<pid_t>(std::stol("0" + read_text(pid_file)));
+  ASSERT_TRUE(alive(pid)) << read_text(err);
+
+  const fs::path db = dir / "records" / "xvfb-1.db";
+  const auto check_disk = [&](const std::string& when) {
+    SCOPED_TRACE(when);
+    EXPECT_EQ(sql_rows(db, "SELECT seed, ended_at IS NULL FROM trials"), (std::vector<std::string>{"-1|1"}));
+    EXPECT_EQ(fs::file_size(recording), 0u) << "the recording is held in memory";
+    EXPECT_FALSE(fs::exists(recording.string() + "-wal"));
+    std::size_t trees = 0;
+    for (const auto& entry : fs::directory_iterator(cache))
+      trees += entry.path().extension() == ".tree" ? 1 : 0;
+    EXPECT_EQ(trees, 1u) << "the gingiva's tree only, no part of tooth46";
+    EXPECT_TRUE(owner_only(dir / "records"));
+    EXPECT_TRUE(owner_only(db));
+    EXPECT_TRUE(owner_only(recordings));
+    EXPECT_TRUE(owner_only(recording));
+  };
+  check_disk("while the trial runs");
+
+  // A crash: kill -9, then the same.
+  ::kill(pid, SIGKILL);
+  while (!fs::exists(done) && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  check_disk("after kill -9");
+  RunResult r;
+  r.out = read_text(out);
+  r.err = read_text(err);
+  EXPECT_THAT(r.err, HasSubstr("run: study diagnosis-small for P05"));
+  expect_terminal_tells_nothing(r, {std::to_string(kSeed), seed_text, "occlusal", "tooth46"});
+}
+
+// Item 20: the passphrase is checked off the window's thread. At the highest allowed cost (about half
+// a second) the window goes on drawing while it checks: the frame at the exit time, 0.1 s after the
+// passphrase was given, shows "checking". Before, the window froze for the whole check (2.7 s at the
+// cost allowed then) and no frame was drawn meanwhile.
+TEST_F(TraineeXvfb, TheWindowKeepsDrawingWhileAPassphraseIsChecked) {
+  const fs::path dir = scratch("checking");
+  const fs::path course = dir / "course.yaml";
+  std::ofstream(course) << "course: Checking test\nstudy: tuning\nrecords: records\nstation: xvfb-1\n"
+                        << "instructor: "
+                        << cariesim::training::hash_passphrase(kPassphrase,
+                                                               cariesim::training::kPassphraseMaxIterations)
+                        << "\n";
+  std::ofstream(dir / "script.txt") << "0.3 passphrase " << kPassphrase << "\n";
+  const RunResult r =
+      shot("trainee-checking",
+           "--course '" + course.string() + "' --participant P01 --trials 1 --device null --script '" +
+               (dir / "script.txt").string() + "'",
+           0.4);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const fs::path json = json_of("trainee-checking");
+  EXPECT_EQ(json_query(json, "(d['instructor']['checking'], d['instructor']['unlocked'])"), "(True, False)");
+  EXPECT_EQ(json_query(json, "d['mode']"), "trainee");
+}
+
+// Item 20: after three wrong passphrases in a row the next try waits 1 s; the two given at once are
+// refused unchecked (and said so on the terminal). Before, every guess was checked at once (40 in 7 s).
+TEST_F(TraineeXvfb, TriesAreSpacedOutAfterThreeWrongPassphrases) {
+  const fs::path dir = scratch("backoff");
+  const fs::path course = write_course(dir, "tuning");
+  std::ofstream(dir / "guesses.txt") << "0.2 passphrase guess one\n0.25 passphrase guess two\n"
+                                        "0.3 passphrase guess three\n0.35 passphrase guess four\n"
+                                        "0.4 passphrase guess five\n";
+  const RunResult r =
+      shot("trainee-backoff",
+           "--course '" + course.string() + "' --participant P01 --trials 1 --device null --script '" +
+               (dir / "guesses.txt").string() + "'",
+           3.0);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("wrong instructor passphrase (3 refused; next try in 1 s)"));
+  EXPECT_THAT(r.err, HasSubstr("not checked: next try in 1 s"));
+  const fs::path json = json_of("trainee-backoff");
+  EXPECT_EQ(json_query(json, "(d['instructor']['refused'], d['instructor']['deferred'])"), "(3, 2)");
+  EXPECT_EQ(json_query(json, "d['instructor']['retry_in'] == 0"), "True") << "the wait is over at 3 s";
 }
 
 }  // namespace

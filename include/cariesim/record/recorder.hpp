@@ -51,9 +51,18 @@ struct RecorderOptions {
   double soft_tissue_threshold = 1.0;  ///< N, a soft-tissue contact above this is an event
   bool overwrite = false;              ///< replace an existing file; otherwise an existing file is an error
   bool fsync_batches = false;          ///< fsync every batch (survives power loss, not only a crash)
-  uint64_t max_bytes = 0;              ///< bytes, database size limit (0 = none); beyond it the
-                                       ///< recorder stops writing and reports "full"
+  uint64_t max_bytes = 0;              ///< bytes, database size limit (0 = none; kHeldMaxBytes when
+                                       ///< held); beyond it the recorder stops writing and reports "full"
+  /// Keep the recording in memory while it runs and write the file only when it stops: nothing of
+  /// the session (its parameters, samples, events) is on disk until then, so nobody at the station can
+  /// read a trial's lesions off its live recording (trainee mode, docs/instructors.md). The file is
+  /// claimed (created empty, owner-only) at once; a crash leaves it empty. About 230 bytes per sample
+  /// in memory (0.8 GB per hour at 1 kHz), at most max_bytes.
+  bool hold_until_stop = false;
 };
+
+/// bytes: the size limit of a held recording (RecorderOptions::hold_until_stop) when max_bytes is 0.
+inline constexpr uint64_t kHeldMaxBytes = uint64_t{1} << 30;
 
 /// What the writer has done so far; the viewer shows `ok` and `message`.
 struct RecorderStatus {

@@ -40,6 +40,10 @@ SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree = {
 
 struct BuildOptions {
   bool use_cache = true;                   ///< read and write the tree cache
+  /// Write to the tree cache the parts of objects that carry lesions (their healthy and caries parts
+  /// hold the lesions' geometry). False in trainee mode: a drawn case's lesions are never left in the
+  /// station's cache (they are read from it when there, and built otherwise).
+  bool cache_lesion_parts = true;
   std::filesystem::path cache_dir;         ///< empty: TreeCache::default_dir()
   std::optional<TreeMode> mode;            ///< overrides every object's tree mode
   std::optional<int> octree_depth;         ///< overrides the octree depth

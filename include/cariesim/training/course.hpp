@@ -10,8 +10,10 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
+#include <unordered_set>
 #include <vector>
 
 namespace cariesim::training {
@@ -19,11 +21,13 @@ namespace cariesim::training {
 /// Iterations of a new passphrase hash (OWASP's 2023 figure for PBKDF2-HMAC-SHA256; ~0.16 s here).
 inline constexpr int kPassphraseIterations = 600000;
 /// Fewest and most iterations a course file's hash may have (weaker is refused; more would make
-/// every unlock attempt take seconds).
+/// every unlock attempt cost over half a second here: ~0.53 s at the maximum).
 inline constexpr int kPassphraseMinIterations = 100000;
-inline constexpr int kPassphraseMaxIterations = 10000000;
+inline constexpr int kPassphraseMaxIterations = 2000000;
 /// Bytes of a new hash's salt and of the derived key.
 inline constexpr std::size_t kPassphraseSaltBytes = 16;
+/// Most bytes a stored hash's salt may have (RFC 8018 asks for at least 8; 16 are made).
+inline constexpr std::size_t kPassphraseMaxSaltBytes = 64;
 inline constexpr std::size_t kPassphraseHashBytes = 32;
 /// Shortest passphrase `hash_passphrase` accepts (characters).
 inline constexpr std::size_t kPassphraseMinLength = 8;
@@ -31,7 +35,7 @@ inline constexpr std::size_t kPassphraseMinLength = 8;
 /// A decoded `pbkdf2-sha256$ITER$SALT$HASH`.
 struct PassphraseHash {
   int iterations = 0;               ///< PBKDF2 iteration count
-  std::vector<unsigned char> salt;  ///< random salt, at least 8 bytes
+  std::vector<unsigned char> salt;  ///< random salt, 8 to kPassphraseMaxSaltBytes bytes
   std::vector<unsigned char> hash;  ///< derived key, 32 bytes
 };
 
@@ -66,9 +70,25 @@ struct Course {
   [[nodiscard]] bool allows(std::string_view id) const;
 };
 
-/// True for a name usable as a station or participant ID: 1-64 characters, letters, digits, '.',
-/// '_' and '-', not starting with '.' (it becomes part of file names).
+/// True for a name usable as a station name, a participant ID or a study name: 1-64 characters,
+/// letters, digits, '.', '_' and '-', not starting with '.' (it becomes part of file names, so it can
+/// never hold a '/' or be "." or ".."). The one rule for every name that reaches a path.
 bool valid_identifier(std::string_view id);
+/// valid_identifier's rule in words, for messages.
+inline constexpr std::string_view kIdentifierRule =
+    "1-64 letters, digits, '.', '_' or '-', not starting with '.'";
+
+/// Index of the first of `items` equal to an earlier one; items.size() when all differ. One
+/// hash-set insertion each (equality only on equal hashes): linear, where comparing every pair took
+/// tens of seconds for a course of 100 000 participants. `Hash` hashes a T (default std::hash<T>).
+template <typename T, typename Hash = std::hash<T>>
+std::size_t first_repeated(const std::vector<T>& items) {
+  std::unordered_set<T, Hash> seen;
+  seen.reserve(items.size());
+  for (std::size_t i = 0; i < items.size(); ++i)
+    if (!seen.insert(items[i]).second) return i;
+  return items.size();
+}
 
 /// Parses course YAML; `origin` names it in messages and relative paths resolve against its folder.
 /// Throws cariesim::Error "file:line:column: field: message".

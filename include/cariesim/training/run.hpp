@@ -50,7 +50,23 @@ struct RunOptions {
   /// s a write to the database waits for another program's lock (retrying with a growing backoff)
   /// before a trial's answers and scores go to a pending file beside it (pending_folder()).
   double lock_wait = 10.0;
+  /// Files this run creates are the owner's only: a new database 0600 (SQLite gives its -wal and -shm
+  /// files the same), a new recordings folder 0700. Existing files and folders keep their modes.
+  bool private_files = true;
+  /// Trainee mode (the viewer's course): nothing on disk names the running trial's case. Its row is
+  /// written at begin_trial with the seed kSeedNotWritten, and the seed at end_trial or
+  /// abandon_trial; a crash leaves kSeedNotWritten. (The trial's recording is held in memory by its
+  /// Session, RecorderOptions::hold_until_stop.)
+  bool hide_case_while_running = false;
 };
+
+/// trials.seed of a trial that runs in trainee mode (RunOptions::hide_case_while_running) and has
+/// not ended yet, or was cut short by a crash; seeds themselves are in [0, 2^63).
+inline constexpr int64_t kSeedNotWritten = -1;
+
+/// Creates a folder for study databases or recordings (and its missing parents); the folder itself,
+/// when new, is owner-only (0700). Throws cariesim::Error naming the folder and the reason.
+void create_study_folder(const std::filesystem::path& folder);
 
 /// A diagnosis mark: the participant held the tip here and pressed the mark key or button.
 struct Mark {
@@ -169,8 +185,11 @@ class StudyRun {
   /// an unreadable recording, incomplete answers: a tuning level not confirmed); the row then stays
   /// with ended_at NULL and the trial stays current.
   TrialResult end_trial(const std::filesystem::path& recording, const Model* model = nullptr);
-  /// Leaves the current trial unfinished (its row keeps ended_at NULL) and moves to the next.
-  void abandon_trial();
+  /// Leaves the current trial unfinished (its row keeps ended_at NULL) and moves to the next. A
+  /// non-empty `reason` (why it could not start or be saved; it may name the case's lesions) goes into
+  /// the row's answers as {"error": reason}, never to the screen; a hidden seed is written now.
+  /// Database failures here are not thrown: the trial is abandoned whatever happens.
+  void abandon_trial(const std::string& reason = {});
 
  private:
   struct Db;

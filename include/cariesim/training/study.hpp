@@ -131,7 +131,9 @@ struct ScoringDesc {
 
 /// A parsed, validated study file.
 struct Study {
-  std::string name;          ///< the file's `name` (else its stem)
+  /// The file's `name` (else its stem): a valid_identifier (course.hpp), as it names the trials'
+  /// recording files
+  std::string name;
   std::string description;   ///< free text
   std::string origin;        ///< file path or "builtin:NAME"
   uint64_t source_hash = 0;  ///< hash of the YAML text
@@ -154,6 +156,14 @@ Study load_study(const std::string& name_or_file);
 std::vector<std::string> builtin_study_names();
 /// The YAML text of a built-in study; empty when there is none of that name.
 std::string_view builtin_study_yaml(std::string_view name);
+
+/// Largest study seed: seeds are stored in SQLite's signed INTEGER (trials.seed), so [0, 2^63 - 1].
+inline constexpr uint64_t kMaxSeed = (uint64_t{1} << 63) - 1;
+
+/// A seed written as text (a study file's `seed:`, `--seed` of `cariesim run` and `cariesim study run`):
+/// decimal digits only (no sign, no spaces, no hex), a value in [0, kMaxSeed]. Unset for anything
+/// else, so "-1" or "99999999999999999999" can never wrap around to 2^64 - 1.
+std::optional<uint64_t> parse_seed(std::string_view text);
 
 /// The seed of trial `index` of a run whose study seed is `study_seed`: the (index+1)-th output of a
 /// std::mt19937_64 seeded with study_seed, shifted right by one (63 bits: it fits SQLite's INTEGER).
