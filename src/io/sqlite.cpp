@@ -721,6 +721,14 @@ std::unique_ptr<Database> create_database(const fs::path& file) {
                                                 "new", {}));
 }
 
+// A memory database through a URI (mode=memory): a plain ":memory:" name would become a file named
+// ":memory:" in the working folder once it is turned into a file: URI.
+std::unique_ptr<Database> create_memory_database(const std::string& name) {
+  return std::unique_ptr<Database>(new Database(name, "file:cariesim-memory?mode=memory",
+                                                SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_URI,
+                                                "memory", {}));
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Statement
 

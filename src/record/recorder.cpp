@@ -78,7 +78,7 @@ struct Recorder::Impl {
       : file(path),
         options(opts),
         db_owner(opts.hold_until_stop
-                     ? std::make_unique<io::Database>(fs::path(":memory:"), SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE)
+                     ? io::create_memory_database(path.string() + " (held in memory)")
                      : io::create_database(path)),
         db(*db_owner),
         deriver(opts.soft_tissue_threshold, 1.0 / session.rate_hz) {}

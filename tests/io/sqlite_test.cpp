@@ -273,6 +273,26 @@ TEST_F(SqliteTest, InputsGetNoFileBesideThem) {
 }
 
 // A file at rest that a program starts writing while it is read: the reader is told.
+// A memory database is private to its connection and writes no file, not even in the working folder
+// (a ":memory:" name turned into a file: URI would be a file of that name there).
+TEST_F(SqliteTest, AMemoryDatabaseWritesNoFileAndIsPrivate) {
+  const fs::path before = fs::current_path();
+  fs::current_path(dir_);
+  {
+    const auto a = create_memory_database("held a");
+    const auto b = create_memory_database("held b");
+    EXPECT_EQ(a->access(), "memory");
+    a->exec("CREATE TABLE t (x INTEGER)", "create");
+    a->exec("INSERT INTO t VALUES (1)", "insert");
+    b->exec("CREATE TABLE t (x INTEGER)", "create in the other");  // its own, empty database
+    Statement count(*a, "SELECT count(*) FROM t");
+    ASSERT_EQ(count.step(), SQLITE_ROW);
+    EXPECT_EQ(count.integer(0), 1);
+  }
+  fs::current_path(before);
+  EXPECT_TRUE(fs::is_empty(dir_)) << "a memory database left a file in the working folder";
+}
+
 TEST_F(SqliteTest, AnImmutableInputThatChangesIsNoticed) {
   const fs::path file = make("changes.db");
   const auto db = open_input(file, test_schema());

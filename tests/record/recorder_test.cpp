@@ -10,6 +10,7 @@
 #include <chrono>
 #include <fstream>
 #include <thread>
+#include <vector>
 
 #include "cariesim/common/error.hpp"
 #include "record/record_support.hpp"
@@ -294,6 +295,32 @@ TEST(Recorder, AHeldRecordingReachesTheDiskOnlyWhenItStops) {
   EXPECT_EQ(std::count_if(recording.events.begin(), recording.events.end(),
                           [](const RecordedEvent& e) { return e.kind == "param"; }),
             1);
+}
+
+// Held recordings one after another in the same working folder: each is its own memory database
+// and none leaves a file there. Before, the memory database was a file named ":memory:" in the
+// working folder, so the second trial failed ("table schema_version already exists") and the first
+// trial's samples sat on the station's disk.
+TEST(Recorder, HeldRecordingsLeaveNothingInTheWorkingFolder) {
+  test::ScratchDir dir("held-twice");
+  const std::filesystem::path before = std::filesystem::current_path();
+  std::filesystem::current_path(dir.path());
+  for (const char* name : {"first.db", "second.db"}) {
+    RecorderOptions options;
+    options.hold_until_stop = true;
+    Recorder recorder(dir / name, synthetic_session(1000.0), options);
+    recorder.start();
+    ASSERT_TRUE(push_range(recorder, 0, 50, 1000.0));
+    recorder.stop();
+    EXPECT_TRUE(recorder.status().ok) << name << ": " << recorder.status().message;
+    EXPECT_EQ(load_recording(dir / name).samples.size(), 50u) << name;
+  }
+  std::filesystem::current_path(before);
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+    names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"first.db", "second.db"}));
 }
 
 TEST(Recorder, StopIsIdempotentAndWorksWithoutStart) {

@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/udp_device.hpp"
@@ -137,6 +139,11 @@ TEST(DeviceFactory, ReplayReachesTheRecordModule) {
   // With ":loop" it starts over instead of ending.
   auto looped = make_device("replay:" + file.string() + ":loop");
   looped->start();
+  // The file streams: wait (as replay_test does) until the loader has the second pass in.
+  auto* looping = dynamic_cast<ReplayDevice*>(looped.get());
+  ASSERT_NE(looping, nullptr);
+  for (int wait = 0; !looping->ready(1.01 + 0.5) && wait < 10000; ++wait)
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
   const DeviceState again = looped->read(1.01 + 0.5);
   EXPECT_TRUE(again.valid);
   EXPECT_NEAR(again.pose.p.x(), 5.0, 1e-6);

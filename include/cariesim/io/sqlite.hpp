@@ -111,6 +111,10 @@ std::unique_ptr<Database> open_for_append(const std::filesystem::path& file, con
 /// must not exist yet), read-write, with the defensive settings. Throws cariesim::Error.
 std::unique_ptr<Database> create_database(const std::filesystem::path& file);
 
+/// Creates a private database in memory, with the defensive settings; it writes no file (not even
+/// one named after `name`, which only names it in messages). Throws cariesim::Error.
+std::unique_ptr<Database> create_memory_database(const std::string& name);
+
 /// One connection to a database file.
 class Database {
  public:
@@ -160,6 +164,7 @@ class Database {
   friend std::unique_ptr<Database> open_input(const std::filesystem::path&, const Schema&, const WorkLimits&);
   friend std::unique_ptr<Database> open_for_append(const std::filesystem::path&, const Schema&);
   friend std::unique_ptr<Database> create_database(const std::filesystem::path&);
+  friend std::unique_ptr<Database> create_memory_database(const std::string&);
   friend struct BoundedVfs;
   struct Bounds;
   // Opens `uri` (a file: URI) through this connection's bounded file system with `limits` in force
