@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <memory>
@@ -16,6 +17,10 @@ int main(int argc, char** argv) {
   // report): spdlog's default logger, set once here before anything logs.
   spdlog::set_default_logger(
       std::make_shared<spdlog::logger>("", std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
+  // A file that reaches the size limit (ulimit -f, a quota) fails its write with EFBIG, which the
+  // writer reports (a recording's error, exit status 4), instead of SIGXFSZ ending the program with
+  // nothing said and the record left open.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"cariesim: 6-DoF haptic simulator for probing dental caries"};
   app.require_subcommand(0, 1);
   cariesim::cli::Registry registry;

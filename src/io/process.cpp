@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <optional>
+#include <string_view>
 
 #include "cariesim/common/error.hpp"
 
@@ -102,9 +103,11 @@ ProcessResult run_process(const std::vector<std::string>& argv, const ProcessOpt
   std::optional<Pipe> out;
   if (options.stdout_to == ChildStdout::Capture) out.emplace();
 
-  // The child's descriptors: stdin from /dev/null, stdout as asked, stderr into the pipe, nothing else.
+  // The child's descriptors: stdin from /dev/null or the file given, stdout as asked, stderr into the pipe, nothing else.
   SpawnSetup setup;
-  posix_spawn_file_actions_addopen(&setup.actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&setup.actions, 0,
+                                   options.stdin_file.empty() ? "/dev/null" : options.stdin_file.c_str(),
+                                   O_RDONLY, 0);
   switch (options.stdout_to) {
     case ChildStdout::Discard:
       posix_spawn_file_actions_addopen(&setup.actions, 1, "/dev/null", O_WRONLY, 0);
@@ -118,6 +121,8 @@ ProcessResult run_process(const std::vector<std::string>& argv, const ProcessOpt
   }
   posix_spawn_file_actions_adddup2(&setup.actions, err.write, 2);
   posix_spawn_file_actions_addclosefrom_np(&setup.actions, 3);
+  if (!options.working_dir.empty())
+    posix_spawn_file_actions_addchdir_np(&setup.actions, options.working_dir.c_str());
   // Default signal handling and an empty mask, whatever this process's threads changed.
   sigset_t none, all;
   sigemptyset(&none);
@@ -132,10 +137,21 @@ ProcessResult run_process(const std::vector<std::string>& argv, const ProcessOpt
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  // The environment: this process's, with the options' entries replacing those of the same name.
+  std::vector<char*> env;
+  const auto name_of = [](std::string_view entry) { return entry.substr(0, entry.find('=')); };
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string_view name = name_of(*e);
+    if (std::none_of(options.environment.begin(), options.environment.end(),
+                     [&](const std::string& add) { return name_of(add) == name; }))
+      env.push_back(*e);
+  }
+  for (const std::string& add : options.environment) env.push_back(const_cast<char*>(add.c_str()));
+  env.push_back(nullptr);
   pid_t pid = -1;
   const bool search = argv.front().find('/') == std::string::npos;
-  const int rc = search ? ::posix_spawnp(&pid, args[0], &setup.actions, &setup.attr, args.data(), environ)
-                        : ::posix_spawn(&pid, args[0], &setup.actions, &setup.attr, args.data(), environ);
+  const int rc = search ? ::posix_spawnp(&pid, args[0], &setup.actions, &setup.attr, args.data(), env.data())
+                        : ::posix_spawn(&pid, args[0], &setup.actions, &setup.attr, args.data(), env.data());
   err.close_write();
   if (out) out->close_write();
   if (rc != 0) {

@@ -1,24 +1,19 @@
 #include "apps/apps_support.hpp"
 
-#include <sys/wait.h>
-
-#include <cstdlib>
-
-#include "support/files.hpp"
+#include "support/command.hpp"
 
 namespace cariesim::test {
 
-CommandResult run_cariesim(const std::string& args, const std::filesystem::path& scratch,
-                           const std::string& env) {
-  const std::filesystem::path out = scratch / "stdout.txt";
-  const std::filesystem::path err = scratch / "stderr.txt";
-  const std::string command = env + (env.empty() ? "" : " ") + "'" + std::string(CARIESIM_EXE) + "' " + args +
-                              " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int raw = std::system(command.c_str());
+CommandResult run_cariesim(const std::string& args, const std::string& env,
+                           const std::filesystem::path& working_dir) {
+  io::ProcessOptions options;
+  options.environment = words(env);
+  options.working_dir = working_dir.string();
+  const CommandOutput o = run_command(CARIESIM_EXE, args, options);
   CommandResult r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = read_text(out);
-  r.err = read_text(err);
+  r.status = o.status;
+  r.out = o.out;
+  r.err = o.err;
   return r;
 }
 

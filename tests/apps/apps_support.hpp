@@ -14,10 +14,11 @@ struct CommandResult {
   std::string err;  ///< stderr
 };
 
-/// Runs `cariesim ARGS` (CARIESIM_EXE) through the shell with `env` (e.g. "NAME='value'") in
-/// front; its streams go through files in `scratch`.
-CommandResult run_cariesim(const std::string& args, const std::filesystem::path& scratch,
-                           const std::string& env = "");
+/// Runs `cariesim ARGS` (CARIESIM_EXE), ARGS split into words as a shell would (support/command.hpp)
+/// but started without one; `env` holds "NAME=value" words (quoted like ARGS) added to the
+/// environment; `working_dir` is its folder (empty: the test's).
+CommandResult run_cariesim(const std::string& args, const std::string& env = "",
+                           const std::filesystem::path& working_dir = {});
 
 /// A fixture with a scratch folder per test (`dir_`, under the temporary directory, named from
 /// `prefix`, the test's name and the process id), made empty before the test and removed after it.

@@ -12,6 +12,7 @@
 
 #include "apps/apps_support.hpp"
 #include "support/files.hpp"
+#include "support/command.hpp"
 
 namespace {
 
@@ -29,7 +30,7 @@ class CliTest : public cariesim::test::ScratchTest {
 
   // Runs `cariesim ARGS` with the cache in the scratch folder; captures both streams.
   Result run(const std::string& args) const {
-    return cariesim::test::run_cariesim(args, dir_, "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "'");
+    return cariesim::test::run_cariesim(args, "CARIESIM_CACHE_DIR='" + (dir_ / "cache").string() + "'");
   }
 
   fs::path write(const std::string& name, const std::string& text) const {
@@ -42,12 +43,9 @@ class CliTest : public cariesim::test::ScratchTest {
   std::string python_json(const std::string& json, const std::string& script) const {
     const fs::path data = write("out.json", json);
     const fs::path code = write("check.py", "import json, sys\nd = json.load(open(sys.argv[1]))\n" + script);
-    const fs::path result = dir_ / "python.txt";
-    const std::string command =
-        "python3 '" + code.string() + "' '" + data.string() + "' >'" + result.string() + "' 2>&1";
-    const int raw = std::system(command.c_str());
-    EXPECT_TRUE(WIFEXITED(raw) && WEXITSTATUS(raw) == 0) << read_text(result) << "\nJSON:\n" << json;
-    return read_text(result);
+    const cariesim::test::CommandOutput r = cariesim::test::run_command({"python3", code.string(), data.string()});
+    EXPECT_EQ(r.status, 0) << r.how << "\n" << r.out << r.err << "\nJSON:\n" << json;
+    return r.out + r.err;
   }
 };
 

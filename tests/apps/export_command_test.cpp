@@ -23,8 +23,8 @@ namespace fs = std::filesystem;
 using cariesim::test::read_text;
 
 // Runs `cariesim ARGS`; returns the exit status and stderr.
-int run_cariesim(const std::string& args, const fs::path& dir, std::string& err) {
-  const test::CommandResult r = test::run_cariesim(args, dir);
+int run_cariesim(const std::string& args, std::string& err) {
+  const test::CommandResult r = test::run_cariesim(args);
   err = r.err;
   return r.status;
 }
@@ -48,7 +48,7 @@ TEST(ExportCommand, WritesTheCsvFiles) {
     recorder.stop();
   }
   std::string err;
-  ASSERT_EQ(run_cariesim("export '" + file.string() + "' --out '" + (dir / "csv").string() + "'", dir, err),
+  ASSERT_EQ(run_cariesim("export '" + file.string() + "' --out '" + (dir / "csv").string() + "'", err),
             0)
       << err;
   EXPECT_THAT(err, HasSubstr("250 samples"));
@@ -64,8 +64,7 @@ TEST(ExportCommand, WritesTheCsvFiles) {
   // A file that is not a recording: exit status 2 and the file named.
   std::ofstream(dir / "notes.txt")
       << "not a recording at all, just some text long enough for SQLite to look at";
-  EXPECT_EQ(run_cariesim("export '" + (dir / "notes.txt").string() + "' --out '" + (dir / "x").string() + "'",
-                         dir, err),
+  EXPECT_EQ(run_cariesim("export '" + (dir / "notes.txt").string() + "' --out '" + (dir / "x").string() + "'", err),
             2);
   EXPECT_THAT(err, HasSubstr("notes.txt"));
   EXPECT_THAT(err, HasSubstr("not a cariesim recording"));

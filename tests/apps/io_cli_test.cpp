@@ -14,6 +14,7 @@
 #include <string>
 
 #include "apps/apps_support.hpp"
+#include "support/command.hpp"
 #include "support/fifo.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
@@ -25,12 +26,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-// `text` as one word of a POSIX shell command line, whatever it holds.
-std::string shell_word(const std::string& text) {
-  std::string out = "'";
-  for (const char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
+using test::shell_word;
 
 // A closed cube of side `s` mm as ASCII STL (12 outward triangles).
 std::string cube_stl(double s) {
@@ -49,7 +45,7 @@ std::string cube_stl(double s) {
   return out.str();
 }
 
-bool have_matplotlib() { return std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") == 0; }
+bool have_matplotlib() { return test::python3_imports("matplotlib"); }
 
 class IoCli : public test::ScratchTest {
  protected:
@@ -66,10 +62,10 @@ class IoCli : public test::ScratchTest {
     return db;
   }
 
-  // Runs `cariesim ARGS` from the scratch folder (so a command an injection runs would write there),
-  // with `env` in front.
+  // Runs `cariesim ARGS` in the scratch folder (so a command an injection ran would write there), with
+  // `env`'s "NAME=value" words added to its environment.
   test::CommandResult run(const std::string& args, const std::string& env = "") const {
-    return test::run_cariesim(args, dir_, "cd " + shell_word(dir_.string()) + " && " + env);
+    return test::run_cariesim(args, env, dir_);
   }
 
   // A python package folder whose `matplotlib` raises `exception` on import (PYTHONPATH puts it
@@ -102,7 +98,7 @@ TEST_F(IoCli, AnOutputPathWithQuotesAndSemicolonsRunsNothingAndGetsItsFigures) {
 TEST_F(IoCli, AnApostropheInTheOutputFolderKeepsTheFigures) {
   if (!have_matplotlib()) GTEST_SKIP() << "/usr/bin/python3 with matplotlib is missing";
   const fs::path db = station();
-  const test::CommandResult r = run("report " + shell_word(db.string()) + " --out \"O'Brien class\"");
+  const test::CommandResult r = run("report " + shell_word(db.string()) + " --out " + shell_word("O'Brien class"));
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_THAT(r.err, Not(HasSubstr("matplotlib")));
   EXPECT_TRUE(fs::exists(dir_ / "O'Brien class" / "report-tuning.png")) << r.err;
@@ -159,11 +155,9 @@ TEST_F(IoCli, TreeJsonStaysJsonWhenTheCacheWarns) {
   EXPECT_EQ(r.out.front(), '{') << r.out;
   const fs::path json = dir_ / "tree.json";
   std::ofstream(json) << r.out;
-  EXPECT_EQ(std::system(("/usr/bin/python3 -c 'import json,sys; json.load(open(sys.argv[1]))' " +
-                         shell_word(json.string()))
-                            .c_str()),
-            0)
-      << r.out;
+  const test::CommandOutput check =
+      test::run_command({"/usr/bin/python3", "-c", "import json,sys; json.load(open(sys.argv[1]))", json.string()});
+  EXPECT_EQ(check.status, 0) << check.err << r.out;
 }
 
 // Item 13: `cariesim tree FIFO` said "no such mesh file"; a FIFO is now named by its kind, at once.

@@ -2,13 +2,17 @@
 // through the cariesim binary (CARIESIM_EXE). Each test names the item it keeps fixed.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "apps/apps_support.hpp"
+#include "support/command.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "support/files.hpp"
 
@@ -24,7 +28,7 @@ class Reliability : public test::ScratchTest {
   Reliability() : ScratchTest("cariesim_rel_") {}
 
   // Runs `cariesim ARGS` (with the default tree cache, shared with the other command-line tests).
-  test::CommandResult run(const std::string& args) const { return test::run_cariesim(args, dir_); }
+  test::CommandResult run(const std::string& args) const { return test::run_cariesim(args); }
 
   fs::path write(const std::string& name, const std::string& text) const {
     const fs::path file = dir_ / name;
@@ -118,11 +122,14 @@ TEST_F(Reliability, ServoExitsNonZeroWhenTheRecordingFailed) {
   // The scene's trees in the cache first: under the file size limit the cache could not be written.
   ASSERT_EQ(run("servo --scene friction-block --device null --duration 0.05 --quiet --no-realtime").status,
             0);
-  // dash counts ulimit -f in 512-byte blocks: 128 KB, a fraction of 3 s at 1 kHz (about 700 KB).
-  const test::CommandResult r = test::run_cariesim(
-      "servo --scene friction-block --device null --duration 3 --quiet --no-realtime --record '" +
-          db.string() + "'",
-      dir_, "trap '' XFSZ; ulimit -f 256;");
+  // util-linux's prlimit sets the file size limit for the program it starts: 128 KB, a fraction of
+  // 3 s at 1 kHz (about 700 KB). cariesim itself ignores SIGXFSZ, so the write fails with EFBIG.
+  const test::CommandOutput c = test::run_command(
+      {"prlimit", "--fsize=131072", "--", CARIESIM_EXE, "servo", "--scene", "friction-block", "--device", "null",
+       "--duration", "3", "--quiet", "--no-realtime", "--record", db.string()});
+  test::CommandResult r;
+  r.status = c.status;
+  r.err = c.err + c.how;
   EXPECT_EQ(r.status, 4) << r.err;
   EXPECT_THAT(r.err, HasSubstr("error: " + db.string()));
   EXPECT_GT(load_recording(db).samples.size(), 0u);
@@ -132,12 +139,22 @@ TEST_F(Reliability, ServoExitsNonZeroWhenTheRecordingFailed) {
 // ends the run like Ctrl-C.
 TEST_F(Reliability, ServoClosesTheRecordOnSighup) {
   const fs::path db = dir_ / "hup.db";
-  const test::CommandResult r =
-      run("servo --scene friction-block --device null --duration 60 --quiet --no-realtime --record '" +
-          db.string() + "' & pid=$!; i=0; while [ ! -s '" + db.string() +
-          "' ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i+1)); done;"
-          " sleep 1; kill -HUP $pid; wait $pid");
-  EXPECT_EQ(r.status, 0) << r.err;
+  // servo on a thread of this test; once its record has data, SIGHUP to it (found by its command line).
+  test::CommandOutput r;
+  std::thread servo([&] {
+    r = test::run_command({CARIESIM_EXE, "servo", "--scene", "friction-block", "--device", "null", "--duration",
+                           "60", "--quiet", "--no-realtime", "--record", db.string()});
+  });
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  std::error_code ec;
+  while (!(fs::exists(db, ec) && fs::file_size(db, ec) > 0) && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const pid_t pid = test::find_process(CARIESIM_EXE, db.string());
+  EXPECT_GT(pid, 0) << "servo is not running";
+  if (pid > 0) ::kill(pid, SIGHUP);
+  servo.join();
+  EXPECT_EQ(r.status, 0) << r.how << "\n" << r.err;
   const Recording rec = load_recording(db);
   EXPECT_FALSE(rec.info.ended_at.empty());
   EXPECT_GT(rec.samples.size(), 100u);

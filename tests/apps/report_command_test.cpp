@@ -16,6 +16,7 @@
 #include "apps/apps_support.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
+#include "support/command.hpp"
 
 namespace cariesim {
 namespace {
@@ -53,7 +54,7 @@ class ReportCommand : public test::ScratchTest {
 TEST_F(ReportCommand, WritesTheReport) {
   make_stations();
   const fs::path out = dir_ / "report";
-  const test::CommandResult r = test::run_cariesim("report " + dbs() + " --out '" + out.string() + "'", dir_);
+  const test::CommandResult r = test::run_cariesim("report " + dbs() + " --out '" + out.string() + "'");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("2 database(s), 4 finished trial(s), 1 unfinished"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("warning: 1 unfinished trial(s)"), std::string::npos) << r.err;
@@ -66,7 +67,7 @@ TEST_F(ReportCommand, WritesTheReport) {
   EXPECT_NE(anova.find(",0.0754996729579"), std::string::npos) << anova;     // p
   const std::string html = read_text(out / "report.html");
   EXPECT_EQ(html.find("<script"), std::string::npos);
-  if (std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") != 0)
+  if (!test::python3_imports("matplotlib"))
     GTEST_SKIP() << "/usr/bin/python3 with matplotlib is missing: figures not checked";
   EXPECT_NE(r.err.find("(1 figure(s))"), std::string::npos)
       << r.err;  // tuning only: no boundary or diagnosis
@@ -78,7 +79,7 @@ TEST_F(ReportCommand, NoFigures) {
   make_stations();
   const fs::path out = dir_ / "report";
   const test::CommandResult r =
-      test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures --quiet", dir_);
+      test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures --quiet");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
   EXPECT_FALSE(fs::exists(out / "report-tuning.png"));
@@ -88,17 +89,15 @@ TEST_F(ReportCommand, NoFigures) {
 // docs/reports.md's example runs as written: examples/make_example_study.py (which reads the schema
 // from src/training/study_schema.hpp) and the report of its two stations.
 TEST_F(ReportCommand, DocumentedExampleRuns) {
-  if (std::system("/usr/bin/python3 -c 'import sqlite3' >/dev/null 2>&1") != 0)
+  if (!test::python3_imports("sqlite3"))
     GTEST_SKIP() << "/usr/bin/python3 is missing";
   const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/examples/make_example_study.py";
-  ASSERT_EQ(std::system(
-                ("/usr/bin/python3 '" + script + "' '" + (dir_ / "class").string() + "' >/dev/null").c_str()),
-            0);
+  const test::CommandOutput made = test::run_command({"/usr/bin/python3", script, (dir_ / "class").string()});
+  ASSERT_EQ(made.status, 0) << made.how << "\n" << made.err;
   const fs::path out = dir_ / "class" / "report";
   const test::CommandResult r = test::run_cariesim("report '" + (dir_ / "class" / "station-a.db").string() +
                                                        "' '" + (dir_ / "class" / "station-b.db").string() +
-                                                       "' --out '" + out.string() + "' --no-figures",
-                                                   dir_);
+                                                       "' --out '" + out.string() + "' --no-figures");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("report: 2 database(s), 90 finished trial(s), 1 unfinished, 0 duplicate row(s)"),
             std::string::npos)
@@ -119,19 +118,19 @@ TEST_F(ReportCommand, BadDatabaseNamesTheFileAndWritesNothing) {
   std::ofstream(bad) << "not a database at all, just some notes\n";
   const fs::path out = dir_ / "report";
   test::CommandResult r =
-      test::run_cariesim("report " + dbs() + " '" + bad.string() + "' --out '" + out.string() + "'", dir_);
+      test::run_cariesim("report " + dbs() + " '" + bad.string() + "' --out '" + out.string() + "'");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("error: " + bad.string() + ": not a study database"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
 
-  ASSERT_EQ(test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures", dir_).status,
+  ASSERT_EQ(test::run_cariesim("report " + dbs() + " --out '" + out.string() + "' --no-figures").status,
             0);
   const std::string earlier = read_text(out / "report.html");
-  r = test::run_cariesim("report '" + bad.string() + "' --out '" + out.string() + "'", dir_);
+  r = test::run_cariesim("report '" + bad.string() + "' --out '" + out.string() + "'");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(read_text(out / "report.html"), earlier);
 
-  r = test::run_cariesim("report --out '" + out.string() + "'", dir_);
+  r = test::run_cariesim("report --out '" + out.string() + "'");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.err.find("DB"), std::string::npos) << r.err;
 }
@@ -140,22 +139,20 @@ TEST_F(ReportCommand, BadDatabaseNamesTheFileAndWritesNothing) {
 // trials append to them (the example wrote application 'cariesim', and appending said "no
 // schema_version row").
 TEST_F(ReportCommand, TheExampleStationsTakeMoreTrials) {
-  if (std::system("/usr/bin/python3 -c 'import sqlite3' >/dev/null 2>&1") != 0)
+  if (!test::python3_imports("sqlite3"))
     GTEST_SKIP() << "/usr/bin/python3 is missing";
   const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/examples/make_example_study.py";
-  ASSERT_EQ(std::system(
-                ("/usr/bin/python3 '" + script + "' '" + (dir_ / "class").string() + "' >/dev/null").c_str()),
-            0);
+  const test::CommandOutput made = test::run_command({"/usr/bin/python3", script, (dir_ / "class").string()});
+  ASSERT_EQ(made.status, 0) << made.how << "\n" << made.err;
   const std::string examples = std::string(CARIESIM_SOURCE_DIR) + "/studies/examples/";
   const fs::path station = dir_ / "class" / "station-a.db";
   const test::CommandResult r = test::run_cariesim(
       "study run '" + examples + "boundary-small.yaml' --participant D6 --device 'scripted:" + examples +
           "slide-cube1.csv' --answers '" + examples + "boundary-answers.yaml' --out '" + station.string() +
-          "' --quiet",
-      dir_);
+          "' --quiet");
   ASSERT_EQ(r.status, 0) << r.err;
   const test::CommandResult report = test::run_cariesim(
-      "report '" + station.string() + "' --out '" + (dir_ / "report").string() + "' --no-figures", dir_);
+      "report '" + station.string() + "' --out '" + (dir_ / "report").string() + "' --no-figures");
   ASSERT_EQ(report.status, 0) << report.err;
   EXPECT_NE(read_text(dir_ / "report" / "boundary.csv").find("D6,"), std::string::npos);
 }

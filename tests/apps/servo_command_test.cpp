@@ -30,7 +30,7 @@ class ServoCommand : public test::ScratchTest {
 
   // Runs `cariesim ARGS`; returns the exit status, keeps stderr in err_.
   int run(const std::string& args) {
-    const test::CommandResult r = test::run_cariesim(args, dir_);
+    const test::CommandResult r = test::run_cariesim(args);
     err_ = r.err;
     return r.status;
   }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "apps/apps_support.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 
 namespace cariesim::test {
@@ -24,18 +25,18 @@ class StudyCommand : public ScratchTest {
 };
 
 // Runs `command` (a line starting with "cariesim") from the repository's root, with `--out class.db`
-// pointed into `dir`; returns the exit status, the output in `out`.
+// pointed into `dir`; returns the exit status, the output (stdout then stderr) in `out`.
 int run_example(std::string command, const fs::path& dir, std::string& out) {
   const std::string db = " --out class.db";
   if (const std::size_t at = command.find(db); at != std::string::npos)
-    command.replace(at, db.size(), " --out '" + (dir / "class.db").string() + "'");
-  command.replace(0, std::string("cariesim").size(), "'" + std::string(CARIESIM_EXE) + "'");
-  const fs::path log = dir / "example.txt";
-  const int raw = std::system(
-      ("cd '" + std::string(CARIESIM_SOURCE_DIR) + "' && " + command + " >'" + log.string() + "' 2>&1")
-          .c_str());
-  out = read_text(log);
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    command.replace(at, db.size(), " --out " + cariesim::test::shell_word((dir / "class.db").string()));
+  std::vector<std::string> argv = cariesim::test::words(command);
+  argv.front() = CARIESIM_EXE;
+  cariesim::io::ProcessOptions options;
+  options.working_dir = CARIESIM_SOURCE_DIR;
+  const cariesim::test::CommandOutput r = cariesim::test::run_command(argv, options);
+  out = r.out + r.err;
+  return r.status;
 }
 
 TEST_F(StudyCommand, TheDocExamplesRunAndFillOneDatabase) {
@@ -66,7 +67,7 @@ TEST_F(StudyCommand, ErrorsNameTheFileAndPlace) {
   // A study file with an unknown key.
   const fs::path study = dir_ / "bad.yaml";
   std::ofstream(study) << "kind: boundary-shapes\nboundary:\n  cubes: [1, 2, 3]\n";
-  CommandResult r = run_cariesim("study check '" + study.string() + "'", dir_);
+  CommandResult r = run_cariesim("study check '" + study.string() + "'");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("bad.yaml:3:3"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("cubes"), std::string::npos) << r.err;
@@ -76,21 +77,19 @@ TEST_F(StudyCommand, ErrorsNameTheFileAndPlace) {
   r = run_cariesim("study run '" +
                        (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
                        "' --participant P01 --answers '" + answers.string() + "' --out '" +
-                       (dir_ / "x.db").string() + "' --duration 0.05 --quiet",
-                   dir_);
+                       (dir_ / "x.db").string() + "' --duration 0.05 --quiet");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("answers.yaml:2:5"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("1 shapes named for 3 cubes"), std::string::npos) << r.err;
   // A participant id with a space.
   r = run_cariesim("study run boundary-shapes --participant 'P 1' --answers '" + answers.string() +
-                       "' --out '" + (dir_ / "y.db").string() + "'",
-                   dir_);
+                       "' --out '" + (dir_ / "y.db").string() + "'");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("participant 'P 1'"), std::string::npos) << r.err;
   // A study name that would take the recordings out of their folder (`study check` accepted it).
   for (const std::string name : {"../../../../tmp/x", "/tmp/x"}) {
     std::ofstream(dir_ / "escape.yaml") << "name: " << name << "\nkind: boundary-shapes\n";
-    r = run_cariesim("study check '" + (dir_ / "escape.yaml").string() + "'", dir_);
+    r = run_cariesim("study check '" + (dir_ / "escape.yaml").string() + "'");
     EXPECT_EQ(r.status, 2) << name;
     EXPECT_NE(r.err.find("escape.yaml:1:7: name: '" + name + "' is not a valid study name"),
               std::string::npos)
@@ -113,13 +112,12 @@ TEST_F(StudyCommand, SeedsOutOfRangeAreRefusedEverywhere) {
     CommandResult r = run_cariesim(
         "study run '" + (fs::path(CARIESIM_SOURCE_DIR) / "studies/examples/boundary-small.yaml").string() +
             "' --participant P01 --answers '" + answers.string() + "' --out '" + (dir_ / "s.db").string() +
-            "' --seed " + seed,
-        dir_);
+            "' --seed " + seed);
     EXPECT_NE(r.status, 0);
     EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("is not a seed"), std::string::npos) << r.err;
     r = run_cariesim(
-        "run --course '" + (dir_ / "course.yaml").string() + "' --participant P01 --seed " + seed, dir_);
+        "run --course '" + (dir_ / "course.yaml").string() + "' --participant P01 --seed " + seed);
     EXPECT_NE(r.status, 0);
     EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("is not a seed"), std::string::npos) << r.err;

@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace cariesim::io {
@@ -21,7 +22,7 @@ ProcessResult sh(const std::string& script, ProcessOptions options = {}) {
   return run_process({"/bin/sh", "-c", script}, options);
 }
 
-// Issue 26 item 2: an argument holding quotes, ';' and '$(...)' reaches the child as one argument,
+// An argument holding quotes, ';' and '$(...)' reaches the child as one argument,
 // word for word; nothing of it runs.
 TEST(RunProcess, ArgumentsAreNeverInterpreted) {
   const fs::path dir = fs::temp_directory_path() / ("cariesim-io-process-" + std::to_string(::getpid()));
@@ -35,6 +36,30 @@ TEST(RunProcess, ArgumentsAreNeverInterpreted) {
   EXPECT_EQ(r.out, hostile);
   EXPECT_FALSE(fs::exists(dir / "pwned"));
   EXPECT_FALSE(fs::exists(dir / "pwned2"));
+  fs::remove_all(dir);
+}
+
+// The child runs in the folder it is given, with the entries it is given added to the environment
+// (one of an existing name replaces it), the rest of this process's environment, and the stdin file
+// it is given.
+TEST(RunProcess, WorkingFolderAndEnvironmentAreTheChildsOnly) {
+  const fs::path dir = fs::temp_directory_path() / ("cariesim-io-process-cwd-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  ::setenv("CARIESIM_PROCESS_TEST_KEPT", "kept", 1);
+  ::setenv("CARIESIM_PROCESS_TEST_SWAPPED", "old", 1);
+  ProcessOptions options;
+  options.stdout_to = ChildStdout::Capture;
+  options.working_dir = dir.string();
+  options.environment = {"CARIESIM_PROCESS_TEST_SWAPPED=new", "CARIESIM_PROCESS_TEST_ADDED=a b;c"};
+  std::ofstream(dir / "in.txt") << "from the file\n";
+  options.stdin_file = (dir / "in.txt").string();
+  const ProcessResult r = sh(
+      "read line; echo \"$line\"; pwd; echo \"$CARIESIM_PROCESS_TEST_KEPT|$CARIESIM_PROCESS_TEST_SWAPPED|$CARIESIM_PROCESS_TEST_ADDED\"; "
+      "env | grep -c '^CARIESIM_PROCESS_TEST_SWAPPED='",
+      options);
+  ASSERT_TRUE(r.ok()) << r.describe() << r.err;
+  EXPECT_EQ(r.out, "from the file\n" + fs::canonical(dir).string() + "\nkept|new|a b;c\n1\n");
+  EXPECT_STREQ(::getenv("CARIESIM_PROCESS_TEST_SWAPPED"), "old");
   fs::remove_all(dir);
 }
 

@@ -337,6 +337,9 @@ TEST(ServoLoop, AnnouncedLimitsTightenTheParamsAndKeepTunedMaterials) {
     loop.latest_params(published);
     return published.params.limits.max_force == m.defaults.limits.max_force;
   }));
+  // A cycle with those parameters, and one after it, have written their wrench to the device.
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s) && s.params_version == published.version; }));
+  ASSERT_TRUE(wait_for([&] { return loop.latest(s); }));
   loop.stop();
   EXPECT_DOUBLE_EQ(published.params.limits.max_stiffness, m.defaults.limits.max_stiffness);
   EXPECT_DOUBLE_EQ(published.params.limits.max_torque, m.defaults.limits.max_torque);

@@ -9,6 +9,7 @@
 #include "cariesim/device/udp_device.hpp"
 #include "cariesim/servo/servo.hpp"
 #include "servo/servo_support.hpp"
+#include "support/command.hpp"
 
 namespace cariesim {
 namespace {
@@ -30,14 +31,11 @@ TEST(UdpExampleClient, StreamsATrajectoryAndGetsWrenches) {
 
   const auto csv = std::filesystem::temp_directory_path() / "cariesim_udp_client_test.csv";
   save_trajectory_csv(test::press_and_slide(model, 1.0, 0.5), csv);
-  const std::string command = std::string(CARIESIM_UDP_CLIENT) + " " + csv.string() + " --port " +
-                              std::to_string(device.port()) + " --print-every 0.2 --velocity 2>&1";
-  std::string output;
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  char buffer[512];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
+  const test::CommandOutput client =
+      test::run_command({CARIESIM_UDP_CLIENT, csv.string(), "--port", std::to_string(device.port()),
+                         "--print-every", "0.2", "--velocity"});
+  const std::string output = client.out + client.err;
+  const int status = client.status;
   loop.stop();
   std::filesystem::remove(csv);
 

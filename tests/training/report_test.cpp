@@ -17,6 +17,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "support/csv.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
 
@@ -156,9 +157,7 @@ class ReportTest : public ::testing::Test {
     return [](const fs::path& dir) {
       std::vector<fs::path> figures;
       const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/apps/cariesim/plots/plot_report.py";
-      const int status =
-          std::system(("/usr/bin/python3 '" + script + "' '" + dir.string() + "' >/dev/null 2>&1").c_str());
-      if (status != 0) return figures;
+      if (test::run_command({"/usr/bin/python3", script, dir.string()}).status != 0) return figures;
       std::istringstream list(read_text(dir / "figures_report.txt"));
       for (std::string line; std::getline(list, line);)
         if (!line.empty()) figures.push_back(dir / line);
@@ -167,9 +166,7 @@ class ReportTest : public ::testing::Test {
     };
   }
 
-  static bool have_matplotlib() {
-    return std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") == 0;
-  }
+  static bool have_matplotlib() { return test::python3_imports("matplotlib"); }
 
   fs::path dir_;
 };
@@ -538,10 +535,10 @@ TEST_F(ReportTest, HostileNamesStayCellsAndReportJsonStaysJson) {
   EXPECT_EQ(json.find("\xFF"), std::string::npos);
   EXPECT_THAT(json, HasSubstr("bad\xEF\xBF\xBD\xEF\xBF\xBDname"));
   // Python's json module (strict UTF-8) reads it back.
-  const std::string check =
-      "/usr/bin/python3 -c 'import json,sys; json.load(open(sys.argv[1], encoding=\"utf-8\"))' '" +
-      (out / "report.json").string() + "'";
-  EXPECT_EQ(std::system(check.c_str()), 0) << "report.json is not valid JSON in UTF-8";
+  const test::CommandOutput check =
+      test::run_command({"/usr/bin/python3", "-c", "import json,sys; json.load(open(sys.argv[1], encoding='utf-8'))",
+                         (out / "report.json").string()});
+  EXPECT_EQ(check.status, 0) << "report.json is not valid JSON in UTF-8: " << check.err;
 }
 
 TEST(ReportBase64, Rfc4648Vectors) {

@@ -5,15 +5,15 @@
 // taken by another test on the machine).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
 #include "support/files.hpp"
+#include "viewer/viewer_support.hpp"
 
 namespace {
 
@@ -21,17 +21,12 @@ namespace fs = std::filesystem;
 
 using cariesim::test::read_text;
 
-int shell(const std::string& command) {
-  const int raw = std::system(command.c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-}
-
 bool contains(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;
 }
 
 TEST(CliDoc, RunExamplesRun) {
-  if (shell("command -v xvfb-run >/dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run is not installed";
+  if (!cariesim::test::have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
   const std::vector<std::string> examples =
       cariesim::test::doc_commands(read_text(fs::path(CARIESIM_SOURCE_DIR) / "docs" / "cli.md"),
                                    "## `cariesim run", "cariesim");
@@ -50,13 +45,10 @@ TEST(CliDoc, RunExamplesRun) {
     std::string args = command.substr(std::string("cariesim").size());
     if (!contains(args, " run")) args = " run" + args;
     if (!contains(args, "--exit-after")) args += " --exit-after 0.5";
-    const fs::path log = dir / ("example-" + std::to_string(ran) + ".log");
-    const int status = shell("cd '" + dir.string() + "' && CARIESIM_CACHE_DIR='" +
-                             (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string() +
-                             "' timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' '" + CARIESIM_EXE + "'" +
-                             args + " >'" + log.string() + "' 2>&1");
-    EXPECT_EQ(status, 0) << command << "\n" << read_text(log);
-    EXPECT_THAT(read_text(log), ::testing::HasSubstr("servo:")) << command;
+    const cariesim::test::RunResult r =
+        cariesim::test::run_under_xvfb(args, "cli-doc-example-" + std::to_string(ran), dir);
+    EXPECT_EQ(r.status, 0) << command << "\n" << r.out << r.err;
+    EXPECT_THAT(r.out + r.err, ::testing::HasSubstr("servo:")) << command;
     // What the example says it writes is there.
     std::istringstream words(args);
     std::string word, previous;

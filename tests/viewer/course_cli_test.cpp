@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cariesim/training/course.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 #include "viewer_support.hpp"
 
@@ -16,7 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using cariesim::test::read_text;
-using cariesim::test::shell;
 using ::testing::HasSubstr;
 
 struct Cli {
@@ -29,11 +29,13 @@ Cli cariesim(const std::string& args, const std::string& input) {
   const fs::path dir = cariesim::test::viewer_artefacts() / "course-cli";
   fs::create_directories(dir);
   std::ofstream(dir / "stdin.txt") << input;
+  cariesim::io::ProcessOptions options;
+  options.stdin_file = (dir / "stdin.txt").string();
+  const cariesim::test::CommandOutput c = cariesim::test::run_command(CARIESIM_EXE, args, options);
   Cli r;
-  r.status = shell("'" + std::string(CARIESIM_EXE) + "' " + args + " <'" + (dir / "stdin.txt").string() +
-                   "' >'" + (dir / "out.txt").string() + "' 2>'" + (dir / "err.txt").string() + "'");
-  r.out = read_text(dir / "out.txt");
-  r.err = read_text(dir / "err.txt");
+  r.status = c.status;
+  r.out = c.out;
+  r.err = c.err;
   return r;
 }
 

@@ -7,9 +7,11 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -19,6 +21,7 @@
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/training/course.hpp"
 #include "cariesim/training/study.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 #include "viewer_support.hpp"
 
@@ -32,7 +35,6 @@ using cariesim::test::load_png;
 using cariesim::test::read_text;
 using cariesim::test::run_under_xvfb;
 using cariesim::test::RunResult;
-using cariesim::test::shell;
 using cariesim::test::viewer_artefacts;
 using ::testing::HasSubstr;
 using ::testing::Not;
@@ -236,11 +238,10 @@ TEST_F(TraineeXvfb, OnlyTheInstructorsPassphraseUnlocks) {
 
 // Rows of an SQL query on a database through the sqlite3 shell, one line per row, '|' between columns.
 std::vector<std::string> sql_rows(const fs::path& db, const std::string& query) {
-  const fs::path out = db.string() + ".query.txt";
-  EXPECT_EQ(shell("sqlite3 '" + db.string() + "' \"" + query + "\" >'" + out.string() + "' 2>&1"), 0)
-      << read_text(out);
+  const cariesim::test::CommandOutput c = cariesim::test::run_command({"sqlite3", db.string(), query});
+  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
   std::vector<std::string> rows;
-  std::istringstream lines(read_text(out));
+  std::istringstream lines(c.out);
   std::string line;
   while (std::getline(lines, line)) rows.push_back(line);
   return rows;
@@ -258,7 +259,7 @@ fs::path write_hover(const fs::path& dir) {
 // trial 2); the station's study database then holds both trials, ended, with their recordings and
 // the boundary scores of those answers (1 point, then 0).
 TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
-  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  if (!cariesim::test::on_path("sqlite3")) GTEST_SKIP() << "the sqlite3 shell is not installed";
   const fs::path dir = scratch("study");
   const fs::path course = write_course(dir, "boundary-shapes");
   const fs::path hover = write_hover(dir);
@@ -328,7 +329,7 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
 // default) and the answers file ends the case at 1.5 s; the trial's row has that mark and the
 // diagnosis scores it earns (three lesions, none detected, three missed, one false mark).
 TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
-  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  if (!cariesim::test::on_path("sqlite3")) GTEST_SKIP() << "the sqlite3 shell is not installed";
   const fs::path dir = scratch("diagnosis");
   const fs::path course = write_course(dir, "diagnosis");
   std::ofstream(dir / "answers.yaml") << "trials:\n  - end: 1.5\n";
@@ -358,7 +359,7 @@ TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
 // values reach the servo thread (the trial's recording has them as `param` events on the tuned
 // lesion) and the study database (the tuned values as scores per level).
 TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
-  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  if (!cariesim::test::on_path("sqlite3")) GTEST_SKIP() << "the sqlite3 shell is not installed";
   const fs::path dir = scratch("tuning");
   const fs::path course = write_course(dir, "tuning");
   std::ofstream(dir / "answers.yaml") << "trials:\n  - tuning: {mild: {mu_s: 0.2, mu_d: 0.15}, severe: "
@@ -409,7 +410,7 @@ bool alive(pid_t pid) { return pid > 0 && ::kill(pid, 0) == 0; }
 // the recording filled as the trainee probed, the cache kept tooth46/healthy and tooth46/lesion1, and
 // the terminal printed the study seed and "(3 collision parts)".
 TEST_F(TraineeXvfb, ARunningOrKilledTrialLeavesNothingOfItsCaseOnDisk) {
-  if (shell("command -v sqlite3 >/dev/null 2>&1") != 0) GTEST_SKIP() << "the sqlite3 shell is not installed";
+  if (!cariesim::test::on_path("sqlite3")) GTEST_SKIP() << "the sqlite3 shell is not installed";
   const fs::path dir = scratch("killed");
   const fs::path examples = fs::path(CARIESIM_SOURCE_DIR) / "studies" / "examples";
   std::string study = read_text(examples / "diagnosis-small.yaml");
@@ -426,35 +427,48 @@ TEST_F(TraineeXvfb, ARunningOrKilledTrialLeavesNothingOfItsCaseOnDisk) {
   constexpr uint64_t kSeed = 987654321;
   const std::string seed_text = std::to_string(cariesim::training::trial_seed(kSeed, 0));
 
-  // The window in the background under xvfb-run (its pid in a file); `done` appears when xvfb-run
-  // has returned.
-  const fs::path cache = dir / "cache", out = dir / "run.out", err = dir / "run.log", pid_file = dir / "pid",
-                 done = dir / "done";
-  std::ofstream(dir / "run.sh") << "export CARIESIM_CACHE_DIR='" << cache.string() << "' OUT='"
-                                << out.string() << "' ERR='" << err.string() << "' PID='" << pid_file.string()
-                                << "'\n"
-                                << "timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' sh -c "
-                                   "'\"$0\" \"$@\" >\"$OUT\" 2>\"$ERR\" & echo $! >\"$PID\"; wait' '"
-                                << CARIESIM_EXE << "' run --course '" << course.string()
-                                << "' --participant P05 --seed " << kSeed << " --device null --no-realtime\n"
-                                << "touch '" << done.string() << "'\n";
-  ASSERT_EQ(shell("sh '" + (dir / "run.sh").string() + "' >/dev/null 2>&1 &"), 0);
+  // The window in the background under xvfb-run, on a thread of this test; `done` is set when
+  // xvfb-run has returned. The window's pid is found by its command line (the course file is this
+  // test's own).
+  const fs::path cache = dir / "cache";
+  std::atomic<bool> done{false};
+  cariesim::test::CommandOutput run;
+  std::vector<std::string> argv = cariesim::test::xvfb_cariesim();
+  const std::vector<std::string> args{"run",  "--course", course.string(), "--participant", "P05", "--seed",
+                                      std::to_string(kSeed), "--device", "null", "--no-realtime"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::thread window([&] {
+    cariesim::io::ProcessOptions options;
+    options.environment = {"CARIESIM_CACHE_DIR=" + cache.string()};
+    run = cariesim::test::run_command(argv, options);
+    done.store(true);
+  });
+  // However the test ends, the window ends with it (it has no time limit of its own).
+  const auto find_window = [&] { return cariesim::test::find_process(CARIESIM_EXE, course.string()); };
+  struct Ending {
+    std::thread& thread;
+    std::function<pid_t()> find;
+    ~Ending() {
+      if (const pid_t p = find(); p > 0) ::kill(p, SIGKILL);
+      thread.join();
+    }
+  } ending{window, find_window};
   // The trial's session records once its scene is built: wait for its recording file, then let the
   // trainee probe for a while (the recorder commits every 50 ms).
   const fs::path recordings = dir / "records" / "xvfb-1-recordings";
   fs::path recording;
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(600);
-  while (recording.empty() && std::chrono::steady_clock::now() < give_up && !fs::exists(done)) {
+  while (recording.empty() && std::chrono::steady_clock::now() < give_up && !done.load()) {
     std::error_code ec;
     if (fs::is_directory(recordings, ec))
       for (const auto& entry : fs::directory_iterator(recordings, ec))
         if (entry.path().extension() == ".db") recording = entry.path();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
-  ASSERT_FALSE(recording.empty()) << read_text(err);
+  ASSERT_FALSE(recording.empty()) << run.err;
   std::this_thread::sleep_for(std::chrono::seconds(2));
-  const pid_t pid = static_cast<pid_t>(std::stol("0" + read_text(pid_file)));
-  ASSERT_TRUE(alive(pid)) << read_text(err);
+  const pid_t pid = find_window();
+  ASSERT_TRUE(alive(pid)) << "the window is not running";
 
   const fs::path db = dir / "records" / "xvfb-1.db";
   const auto check_disk = [&](const std::string& when) {
@@ -475,12 +489,13 @@ TEST_F(TraineeXvfb, ARunningOrKilledTrialLeavesNothingOfItsCaseOnDisk) {
 
   // A crash: kill -9, then the same.
   ::kill(pid, SIGKILL);
-  while (!fs::exists(done) && std::chrono::steady_clock::now() < give_up)
+  while (!done.load() && std::chrono::steady_clock::now() < give_up)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(done.load());
   check_disk("after kill -9");
   RunResult r;
-  r.out = read_text(out);
-  r.err = read_text(err);
+  r.out = run.out;
+  r.err = run.err;
   EXPECT_THAT(r.err, HasSubstr("run: study diagnosis-small for P05"));
   expect_terminal_tells_nothing(r, {std::to_string(kSeed), seed_text, "occlusal", "tooth46"});
 }

@@ -1,10 +1,8 @@
 #include "viewer_support.hpp"
 
-#include <sys/wait.h>
-
-#include <cstdlib>
 #include <fstream>
 
+#include "support/command.hpp"
 #include "support/files.hpp"
 
 namespace cariesim::test {
@@ -17,24 +15,26 @@ fs::path viewer_artefacts() {
   return dir;
 }
 
-int shell(const std::string& command) {
-  const int raw = std::system(command.c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+bool have_xvfb() { return on_path("xvfb-run"); }
+
+std::vector<std::string> xvfb_cariesim() {
+  return {"timeout", "900", "xvfb-run", "-a", "-s", "-screen 0 1280x800x24", CARIESIM_EXE};
 }
 
-bool have_xvfb() { return shell("command -v xvfb-run >/dev/null 2>&1") == 0; }
-
-RunResult run_under_xvfb(const std::string& args, const std::string& name) {
+RunResult run_under_xvfb(const std::string& args, const std::string& name, const fs::path& working_dir) {
+  std::vector<std::string> argv = xvfb_cariesim();
+  for (std::string& w : words(args)) argv.push_back(std::move(w));
+  io::ProcessOptions options;
+  options.environment = {"CARIESIM_CACHE_DIR=" + (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string()};
+  options.working_dir = working_dir.string();
+  const CommandOutput c = run_command(argv, options);
   const fs::path dir = viewer_artefacts();
-  const fs::path out = dir / (name + ".out"), err = dir / (name + ".log");
-  const std::string command = "CARIESIM_CACHE_DIR='" +
-                              (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string() +
-                              "' timeout 900 xvfb-run -a -s '-screen 0 1280x800x24' '" + CARIESIM_EXE + "' " +
-                              args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  std::ofstream(dir / (name + ".out"), std::ios::binary) << c.out;
+  std::ofstream(dir / (name + ".log"), std::ios::binary) << c.err;
   RunResult r;
-  r.status = shell(command);
-  r.out = read_text(out);
-  r.err = read_text(err);
+  r.status = c.status;
+  r.out = c.out;
+  r.err = c.err;
   return r;
 }
 
@@ -49,8 +49,9 @@ std::string json_query(const fs::path& json, const std::string& expression) {
   const fs::path script = json.string() + ".query.py", result = json.string() + ".query.txt";
   std::ofstream(script) << "import json, sys\nd = json.load(open(sys.argv[1]))\ntry:\n    print("
                         << expression << ")\nexcept Exception as e:\n    print('<error: %r>' % e)\n";
-  shell("python3 '" + script.string() + "' '" + json.string() + "' >'" + result.string() + "' 2>&1");
-  std::string text = read_text(result);
+  const CommandOutput c = run_command({"python3", script.string(), json.string()});
+  std::ofstream(result, std::ios::binary) << c.out << c.err;
+  std::string text = c.out + c.err;
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
   return text;
 }

@@ -6,14 +6,12 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace cariesim::test {
 
 /// build/test-artifacts/viewer (created).
 std::filesystem::path viewer_artefacts();
-
-/// Runs a shell command; returns its exit status (-1 when it did not exit).
-int shell(const std::string& command);
 
 /// True when xvfb-run is installed.
 bool have_xvfb();
@@ -23,9 +21,14 @@ struct RunResult {
   std::string out, err;
 };
 
-/// `cariesim ARGS` under xvfb-run with the shared test tree cache, its output in
+/// `cariesim ARGS` under xvfb-run with the shared test tree cache (ARGS split as support/command.hpp
+/// says, no shell), in `working_dir` (empty: the test's folder), its output also in
 /// viewer_artefacts()/NAME.out and NAME.log; generous time limit.
-RunResult run_under_xvfb(const std::string& args, const std::string& name);
+RunResult run_under_xvfb(const std::string& args, const std::string& name,
+                         const std::filesystem::path& working_dir = {});
+
+/// The xvfb-run command line that starts `cariesim` (the words of the arguments follow it).
+std::vector<std::string> xvfb_cariesim();
 
 /// An RGB image read from a PNG (data null when unreadable).
 struct Image {

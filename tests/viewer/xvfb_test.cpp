@@ -20,6 +20,7 @@
 
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/servo.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 #include "viewer_support.hpp"
 
@@ -38,7 +39,6 @@ using cariesim::test::Image;
 using cariesim::test::load_png;
 using cariesim::test::run_under_xvfb;
 using cariesim::test::RunResult;
-using cariesim::test::shell;
 
 fs::path artefacts() { return cariesim::test::viewer_artefacts(); }
 
@@ -69,10 +69,9 @@ t = d["touched"]
 if t is not None:
     print("T touched", t["object"]); print("T touched_tissue", t["tissue"]); print("N touched_color", *t["color"])
 )";
-  EXPECT_EQ(shell("python3 '" + script.string() + "' '" + json.string() + "' >'" + flat.string() + "' 2>&1"),
-            0)
-      << read_text(flat) << "\n"
-      << read_text(json);
+  const cariesim::test::CommandOutput c = cariesim::test::run_command({"python3", script.string(), json.string()});
+  std::ofstream(flat, std::ios::binary) << c.out << c.err;
+  EXPECT_EQ(c.status, 0) << c.out << c.err << "\n" << read_text(json);
   Status s;
   std::istringstream lines(read_text(flat));
   std::string line;
@@ -325,11 +324,10 @@ TEST(ViewerXvfbDefault, MouseOnTheRealArch) {
 
 // Without a display `cariesim run` says so, names xvfb-run, and fails.
 TEST(ViewerHeadless, NoDisplayIsAClearError) {
-  const fs::path err = artefacts() / "headless.log";
-  const int status = shell("env -u DISPLAY -u WAYLAND_DISPLAY '" + std::string(CARIESIM_EXE) +
-                           "' run >/dev/null 2>'" + err.string() + "'");
-  EXPECT_EQ(status, 4);
-  const std::string text = read_text(err);
+  const cariesim::test::CommandOutput c =
+      cariesim::test::run_command({"env", "-u", "DISPLAY", "-u", "WAYLAND_DISPLAY", CARIESIM_EXE, "run"});
+  EXPECT_EQ(c.status, 4) << c.how;
+  const std::string text = c.err;
   EXPECT_THAT(text, HasSubstr("DISPLAY is not set"));
   EXPECT_THAT(text, HasSubstr("xvfb-run"));
 }
@@ -342,13 +340,15 @@ TEST(ScriptsRun, FallsBackToXvfbWithoutADisplay) {
   const fs::path png = build / "run-xvfb.png", json = build / "run-xvfb.json";
   fs::remove(png);
   fs::remove(json);
-  const fs::path out = artefacts() / "scripts-run.out", err = artefacts() / "scripts-run.log";
-  const int status = shell("env -u DISPLAY -u WAYLAND_DISPLAY CARIESIM_BUILD_DIR='" + build.string() +
-                           "' CARIESIM_JOBS=1 CARIESIM_XVFB_SECONDS=1.5 CARIESIM_CACHE_DIR='" +
-                           (build / "test-cache").string() + "' timeout 900 '" + CARIESIM_SOURCE_DIR +
-                           "/scripts/run' >'" + out.string() + "' 2>'" + err.string() + "'");
-  const std::string log = read_text(err);
-  ASSERT_EQ(status, 0) << log << read_text(out);
+  cariesim::io::ProcessOptions options;
+  options.environment = {"CARIESIM_BUILD_DIR=" + build.string(), "CARIESIM_JOBS=1", "CARIESIM_XVFB_SECONDS=1.5",
+                         "CARIESIM_CACHE_DIR=" + (build / "test-cache").string()};
+  const cariesim::test::CommandOutput c = cariesim::test::run_command(
+      {"env", "-u", "DISPLAY", "-u", "WAYLAND_DISPLAY", "timeout", "900",
+       std::string(CARIESIM_SOURCE_DIR) + "/scripts/run"},
+      options);
+  const std::string log = c.err;
+  ASSERT_EQ(c.status, 0) << c.how << "\n" << log << c.out;
   EXPECT_THAT(log, HasSubstr("no display"));
   EXPECT_THAT(log, HasSubstr("xvfb-run"));
   ASSERT_TRUE(fs::exists(png) && fs::exists(json)) << log;

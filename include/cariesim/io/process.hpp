@@ -1,7 +1,7 @@
 #pragma once
 /// Starting a child process (the figure scripts' python3): the one place cariesim does. The child
 /// gets an argument vector through posix_spawn, never a shell, so no character of a path or name is
-/// ever interpreted; its stdin is /dev/null, every descriptor of this process but the three standard
+/// ever interpreted; its stdin is /dev/null (or a file given), every descriptor of this process but the three standard
 /// ones is closed in it, and its signal mask and dispositions are the defaults. Its stderr is captured
 /// (the last `max_stderr_bytes`), its exit status or signal reported, and an optional timeout kills it.
 #include <cstddef>
@@ -25,6 +25,12 @@ struct ProcessOptions {
   double timeout_s = 0.0;
   /// Bytes of stderr (and of captured stdout) kept: the last ones, where a traceback's error is.
   std::size_t max_output_bytes = std::size_t{64} << 10;
+  /// A file the child reads as its stdin; empty: /dev/null.
+  std::string stdin_file;
+  /// The child's working folder; empty: this process's.
+  std::string working_dir;
+  /// "NAME=value" entries added to (or replacing the same names in) this process's environment.
+  std::vector<std::string> environment;
 };
 
 struct ProcessResult {
