@@ -245,17 +245,18 @@ CachedPart build_part(ObjectBuild& b, int part, int lesion, const SceneDesc& sce
   part_ls = part_level_set(b, part);
   CachedPart built;
   try {
-    built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
+    TreeLeaves leaves = build_leaves(*part_ls, b.params, part_progress(options, name));
+    // A cut object: each part also gets the seam leaves on its side of the cuts, so that the parts'
+    // union follows the uncut surface across every lesion's border. Then the hierarchy, once.
+    if (!b.lesions.empty() && b.params.mode == TreeMode::Tight && !leaves.empty()) {
+      if (!b.seam)
+        b.seam = build_seam_leaves(*b.object_ls, b.shapes, b.params, {}, part_progress(options, name));
+      add_seam_leaves(leaves, (*b.seam)[static_cast<std::size_t>(part + 1)], *b.object_ls, b.shapes,
+                      b.params);
+    }
+    built.tree = build_tree(leaves, b.params.branching);
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
-  }
-  // A cut object: each part also gets the seam leaves on its side of the cuts (issue #10), so that
-  // the parts' union follows the uncut surface across every lesion's border.
-  if (!b.lesions.empty() && b.params.mode == TreeMode::Tight && !built.tree.empty()) {
-    if (!b.seam)
-      b.seam = build_seam_leaves(*b.object_ls, b.shapes, b.params, {}, part_progress(options, name));
-    built.tree = add_seam_leaves(built.tree, (*b.seam)[static_cast<std::size_t>(part + 1)], *b.object_ls,
-                                 b.shapes, b.params);
   }
   if (built.tree.empty()) {
     if (lesion >= 0) {
