@@ -18,6 +18,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/geometry/ray_cast.hpp"
 #include "cariesim/io/file.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
@@ -77,34 +78,16 @@ TriangleMesh object_mesh(const ObjectDesc& o) {
 // to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
 constexpr double kDisplayAdaptivity = 0.1;
 
-// Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
-std::optional<double> nearest_crossing(const TriangleMesh& mesh, const Vec3& c, const Vec3& d, double range) {
-  std::optional<double> best;
-  for (const auto& tri : mesh.triangles) {
-    // Möller-Trumbore, double precision, both windings.
-    const Vec3 a = mesh.vertices[tri[0]].cast<double>();
-    const Vec3 e1 = mesh.vertices[tri[1]].cast<double>() - a;
-    const Vec3 e2 = mesh.vertices[tri[2]].cast<double>() - a;
-    const Vec3 p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-14) continue;
-    const Vec3 s = c - a;
-    const double u = s.dot(p) / det;
-    if (u < 0.0 || u > 1.0) continue;
-    const Vec3 q = s.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0.0 || u + v > 1.0) continue;
-    const double t = e2.dot(q) / det;
-    if (std::abs(t) <= range && (!best || std::abs(t) < std::abs(*best))) best = t;
-  }
-  return best;
-}
-
 // A lesion in the world, its centre snapped onto the host's world surface along the normal.
 LesionShape place_lesion(const SceneDesc& scene, const LesionDesc& l, const TriangleMesh& host_world) {
   LesionShape s = lesion_shape_in_world(scene, l);
   if (!l.snap) return s;
-  const std::optional<double> t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
+  std::optional<double> t;
+  try {
+    t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", lesion_context(l), e.what()));
+  }
   if (!t) {
     throw Error(
         fmt::format("{}: the line through placement.at along the normal does not meet the surface of '{}' "
