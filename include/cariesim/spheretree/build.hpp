@@ -83,9 +83,10 @@ TreeLeaves build_leaves(const LevelSet& shape, const TreeParams& params, const P
 /// The tree over `leaves` (leaf index i = leaves.leaves[i]), its inner levels built once: tight,
 /// spheres fitted over median splits of `branching` children (build_hierarchy); octree, the cells
 /// above the leaves (the paper's hierarchy: each inner node the sphere around its cell, radius
-/// (sqrt(3)/2) * edge, whatever `branching`). Throws cariesim::Error naming the leaf for octree cells
-/// that are not the leaves' (another count, out of order, a leaf outside its cell) and for the bad
-/// leaves build_hierarchy refuses. Empty leaves give an empty tree.
+/// (sqrt(3)/2) * edge, whatever `branching`). Throws cariesim::Error naming what is wrong (and the leaf)
+/// for octree cells that are not the leaves' (another count, out of order, deeper than the depth, a leaf
+/// outside its cell, a bad root cell or depth), for cells given with tight leaves, and for the leaves
+/// build_hierarchy refuses. Empty leaves give an empty tree.
 SphereTree build_tree(const TreeLeaves& leaves, int branching = 4);
 
 /// build_tree(build_leaves(shape, params, progress), params.branching).
