@@ -1,9 +1,9 @@
-// build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural shape in the world,
-// lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions, caries_i = object ∩
-// lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and materials. Then the tool,
-// gains, limits, and a check that the model is usable.
+// The model builder, build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural
+// shape in the world, lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions,
+// caries_i = object ∩ lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and
+// materials. Then the tool, gains, limits, and a check that the model is usable.
 
-#include "cariesim/spheretree/build.hpp"
+#include "cariesim/scene/model_builder.hpp"
 
 #include <fmt/format.h>
 
@@ -21,6 +21,7 @@
 #include "cariesim/geometry/ray_cast.hpp"
 #include "cariesim/io/file.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 
