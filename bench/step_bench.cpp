@@ -41,6 +41,7 @@
 
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/render/step.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/scene/trajectory.hpp"
 #include "experiment/oral.hpp"

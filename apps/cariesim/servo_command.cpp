@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "cariesim/device/udp_device.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
 #include "commands.hpp"

@@ -7,6 +7,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/experiment/simulate.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/servo.hpp"
 #include "commands.hpp"

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/servo/device_factory.hpp"
 #include "cariesim/training/course.hpp"
 #include "screenshot.hpp"

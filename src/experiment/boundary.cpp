@@ -7,6 +7,8 @@
 #include <numbers>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
 
 namespace cariesim::experiment {

@@ -6,6 +6,8 @@
 #include <cstdio>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
 
 namespace cariesim::experiment {

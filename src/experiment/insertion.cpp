@@ -9,6 +9,8 @@
 #include <limits>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
 
 namespace cariesim::experiment {

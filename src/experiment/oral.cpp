@@ -8,6 +8,8 @@
 #include <limits>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
 #include "experiment/oral.hpp"
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/spheretree/hierarchy.hpp"
 #include "spheretree/build_support.hpp"
 
 namespace cariesim {
@@ -22,8 +23,7 @@ constexpr double kVoxelPerTolerance = 10.0 / 3.0;
 constexpr double kVoxelsPerOctreeCell = 8.0;
 // Half band in voxels.
 constexpr double kBandVoxels = 5.0;
-// Deepest octree the builder accepts (8^7 ~ 2 million leaves).
-constexpr int kMaxOctreeDepth = 7;
+using detail::kMaxOctreeDepth;
 
 // Rejects parameters a build cannot use, naming the field.
 void check_params(const TreeParams& p) {
@@ -66,36 +66,54 @@ LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams&
   return {voxel, kBandVoxels * voxel};
 }
 
-SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
+TreeLeaves build_leaves(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
   check_params(params);
-  if (shape.empty()) return {};
-  SphereTree tree = params.mode == TreeMode::Octree ? detail::build_octree_tree(shape, params, progress)
-                                                    : detail::build_tight_tree(shape, params, progress);
-  set_leaf_tangents(tree, shape);
+  if (shape.empty()) {
+    TreeLeaves none;
+    none.mode = params.mode;
+    return none;
+  }
+  TreeLeaves out = params.mode == TreeMode::Octree ? detail::build_octree_leaves(shape, params, progress)
+                                                   : detail::build_tight_leaves(shape, params, progress);
+  set_leaf_tangents(out.leaves, shape);
+  return out;
+}
+
+// The inner levels, once: the octree's cells, or spheres fitted over the tight leaves.
+SphereTree build_tree(const TreeLeaves& leaves, int branching) {
+  if (leaves.mode == TreeMode::Octree) return detail::build_octree_hierarchy(leaves);
+  if (!leaves.cells.empty()) throw Error("build_tree: a tight tree's leaves have no octree cells");
+  SphereTree tree = build_hierarchy(leaves.leaves, branching);
+  tree.mode = TreeMode::Tight;
   return tree;
+}
+
+SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
+  return build_tree(build_leaves(shape, params, progress), params.branching);
 }
 
 // Surface leaves without tangents from their builder (the octree's cells) get one: the unit gradient
 // of the solid's distance at their centre (a leaf's nearest surface point lies along it). Interior
 // fillers have none. The tight builder records the surfaces each sphere actually touches, which stays
-// right at an edge or in a thin layer, where the gradient at the centre points along a bisector.
-void set_leaf_tangents(SphereTree& tree, const LevelSet& shape) {
-  if (tree.empty()) return;
+// right at an edge or in a thin layer, where the gradient at the centre points along a bisector; its
+// leaves need no distance field.
+void set_leaf_tangents(std::span<LeafSphere> leaves, const LevelSet& shape) {
   constexpr uint32_t kSurface = kLeafOnExposedSurface | kLeafOnLesionWall;
+  const auto needs_tangent = [](const LeafSphere& l) {
+    return (l.flags & kSurface) && l.tangents.count == 0;
+  };
+  if (std::none_of(leaves.begin(), leaves.end(), needs_tangent)) return;
   double max_radius = 0.0;
-  for (uint32_t node : tree.leaf_nodes)
-    if (tree.nodes[node].flags & kSurface) max_radius = std::max(max_radius, double(tree.nodes[node].radius));
+  for (const LeafSphere& l : leaves)
+    if (l.flags & kSurface) max_radius = std::max(max_radius, double(l.radius));
   const detail::DistanceField field(shape, max_radius + 2.0 * shape.voxel_size());
   detail::DistanceField::Probe probe(field);
-  tree.leaf_tangents.resize(tree.leaf_nodes.size());
-  for (std::size_t i = 0; i < tree.leaf_nodes.size(); ++i) {
-    const SphereNode& node = tree.nodes[tree.leaf_nodes[i]];
-    LeafTangents& t = tree.leaf_tangents[i];
-    if (!(node.flags & kSurface) || t.count > 0) continue;
-    const Vec3 g = probe.gradient(node.center.cast<double>());
+  for (LeafSphere& l : leaves) {
+    if (!needs_tangent(l)) continue;
+    const Vec3 g = probe.gradient(l.center.cast<double>());
     if (!(g.allFinite() && g.norm() > 0.5)) continue;
-    t.normal[0] = g.normalized().cast<float>();
-    t.count = 1;
+    l.tangents.normal[0] = g.normalized().cast<float>();
+    l.tangents.count = 1;
   }
 }
 

@@ -18,9 +18,15 @@
 
 namespace cariesim::detail {
 
-/// The two builders behind build_sphere_tree (parameters already checked).
-SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
-SphereTree build_octree_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
+/// The two builders behind build_leaves (parameters already checked).
+TreeLeaves build_tight_leaves(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
+TreeLeaves build_octree_leaves(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress);
+
+/// build_tree for an octree: the cells above the leaves (`leaves.cells` checked here).
+SphereTree build_octree_hierarchy(const TreeLeaves& leaves);
+
+/// Deepest octree the builder accepts (8^7 ~ 2 million leaves; a cell's path fits 21 bits).
+inline constexpr int kMaxOctreeDepth = 7;
 
 /// `count` points distributed uniformly by area over the mesh (seeded, deterministic).
 std::vector<Vec3> sample_surface(const TriangleMesh& mesh, std::size_t count, uint64_t seed);

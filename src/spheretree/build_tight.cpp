@@ -1,6 +1,6 @@
 // Tight sphere trees (DESIGN.md §3): inscribed spheres under the surface whose union follows the
-// surface to a tolerance, plus a few large filler spheres inside, with inner levels from
-// build_hierarchy.
+// surface to a tolerance, plus a few large filler spheres inside (the leaves: build_tree fits the
+// inner levels over them).
 //
 // The surface leaves come from a greedy cover of dense surface samples (spacing 2 x tolerance). For
 // a sample x with outward normal n, the largest sphere tangent at x is centred at c = x - r n, r the
@@ -22,6 +22,7 @@
 #include <span>
 #include <string>
 
+#include "cariesim/common/error.hpp"
 #include "cariesim/spheretree/hierarchy.hpp"
 #include "cariesim/spheretree/lesion.hpp"
 #include "spheretree/build_support.hpp"
@@ -218,15 +219,18 @@ bool cover_samples(const std::vector<Vec3>& raw, std::vector<uint8_t>& covered, 
 
 }  // namespace
 
-SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
+TreeLeaves build_tight_leaves(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress) {
   const double tol = params.tolerance;
   const double voxel = shape.voxel_size();
+  TreeLeaves out;
+  out.mode = TreeMode::Tight;
+  std::vector<LeafSphere>& leaves = out.leaves;
 
   // Dense samples on the zero set, spaced by the tolerance (within the budget).
   report(progress, "tight: surface", 0.0);
   const TriangleMesh surface = shape.to_mesh(0.0);
   const double area = surface.area();
-  if (!(area > 0.0)) return {};
+  if (!(area > 0.0)) return out;
   const double spacing = std::max(kSpacingPerTolerance * tol, std::sqrt(area / kMaxSamples));
   const std::vector<Vec3> raw = sample_surface_stratified(surface, 1.0 / (spacing * spacing), 1);
   const Eigen::AlignedBox3d box = surface.bounds();
@@ -237,7 +241,6 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
   // Greedy cover of every sample.
   const PointIndex index(raw, 4.0 * spacing);
   std::vector<uint8_t> covered(raw.size(), 0);
-  std::vector<LeafSphere> leaves;
   CoverSettings cfg;
   cfg.tolerance = tol;
   cfg.max_radius = params.max_radius;
@@ -299,12 +302,8 @@ SphereTree build_tight_tree(const LevelSet& shape, const TreeParams& params, con
     }
   }
 
-  // Inner levels over the leaves.
-  report(progress, "tight: hierarchy", 0.95);
-  SphereTree tree = build_hierarchy(leaves, params.branching);
-  tree.mode = TreeMode::Tight;
   report(progress, "tight: done", 1.0);
-  return tree;
+  return out;
 }
 
 }  // namespace cariesim::detail
@@ -398,11 +397,13 @@ std::vector<std::vector<LeafSphere>> build_seam_leaves(const LevelSet& object,
   return parts;
 }
 
-SphereTree add_seam_leaves(const SphereTree& part, std::span<const LeafSphere> seam_leaves,
-                           const LevelSet& object, std::span<const LesionShape> lesions,
-                           const TreeParams& params, const SeamParams& seam) {
+void add_seam_leaves(TreeLeaves& part, std::span<const LeafSphere> seam_leaves, const LevelSet& object,
+                     std::span<const LesionShape> lesions, const TreeParams& params, const SeamParams& seam) {
   using namespace detail;
-  std::vector<LeafSphere> leaves = tree_leaves(part);
+  if (part.mode != TreeMode::Tight) {
+    throw Error("add_seam_leaves: seam leaves join a tight tree's leaves (an octree's leaves are its cells)");
+  }
+  std::vector<LeafSphere>& leaves = part.leaves;
   // The part's own leaves that poke out of the uncut surface within the seam band (by up to the reach
   // slack of their coarser build) are shrunk to the seam leaves' poke. A leaf's poke-out is the cap
   // around its apex toward the nearest surface, c + r g (g the distance's gradient at c): it lies in
@@ -426,9 +427,6 @@ SphereTree add_seam_leaves(const SphereTree& part, std::span<const LeafSphere> s
   }
   leaves.resize(kept);
   leaves.insert(leaves.end(), seam_leaves.begin(), seam_leaves.end());
-  SphereTree tree = build_hierarchy(leaves, params.branching);
-  tree.mode = part.mode;
-  return tree;
 }
 
 }  // namespace cariesim

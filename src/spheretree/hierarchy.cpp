@@ -272,19 +272,4 @@ SphereTree build_tool_tree(const std::vector<ToolSphere>& spheres, int branching
   return build_hierarchy(leaves, branching);
 }
 
-std::vector<LeafSphere> tree_leaves(const SphereTree& tree) {
-  std::vector<LeafSphere> out(tree.leaf_nodes.size());
-  for (std::size_t i = 0; i < out.size(); ++i) {
-    const SphereNode& node = tree.nodes[tree.leaf_nodes[i]];
-    LeafSphere& l = out[i];
-    l.center = node.center;
-    l.radius = node.radius;
-    l.material = node.material;
-    l.flags = node.flags;
-    l.depth = i < tree.leaf_depth.size() ? tree.leaf_depth[i] : 0.0f;
-    if (i < tree.leaf_tangents.size()) l.tangents = tree.leaf_tangents[i];
-  }
-  return out;
-}
-
 }  // namespace cariesim

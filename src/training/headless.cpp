@@ -15,6 +15,7 @@
 #include "cariesim/io/file.hpp"
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/servo/session.hpp"
 #include "cariesim/training/scores.hpp"
 #include "training/study_schema.hpp"

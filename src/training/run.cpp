@@ -28,7 +28,7 @@
 #include "cariesim/io/sqlite.hpp"
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
-#include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/training/course.hpp"
 #include "cariesim/training/scores.hpp"
 #include "training/study_schema.hpp"

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cariesim/experiment/simulate.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "cariesim/experiment/simulate.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "experiment/oral.hpp"
 

@@ -21,6 +21,7 @@
 #include "cariesim/experiment/experiments.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/geometry/mesh.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {

@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "support/alloc_counter.hpp"
 

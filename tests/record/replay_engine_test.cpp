@@ -9,6 +9,7 @@
 
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/record/replay.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "record/record_support.hpp"
 

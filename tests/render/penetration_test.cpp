@@ -12,6 +12,7 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/render/step.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "support/alloc_counter.hpp"
 

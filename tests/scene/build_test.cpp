@@ -12,6 +12,7 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {

@@ -16,6 +16,7 @@
 #include "cariesim/common/hash.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/cache.hpp"
 

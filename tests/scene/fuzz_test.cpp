@@ -10,6 +10,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/render/step.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/scene/trajectory.hpp"
 

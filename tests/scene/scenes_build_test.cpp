@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cariesim/collision/collide.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {

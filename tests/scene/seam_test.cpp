@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim {

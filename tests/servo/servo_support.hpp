@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "cariesim/render/model.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/scene/trajectory.hpp"
 

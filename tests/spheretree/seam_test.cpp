@@ -71,17 +71,21 @@ TEST(SeamLeaves, StayInsideAndReachAcrossTheCutByTheOverlapAtMost) {
 
 TEST(SeamLeaves, CloseTheGrooveTheCutTreesLeave) {
   const CutBlock b;
-  const SphereTree healthy = build_sphere_tree(b.healthy, b.params);
-  const SphereTree caries = build_sphere_tree(b.caries, b.params);
+  const TreeLeaves healthy_leaves = build_leaves(b.healthy, b.params);
+  const TreeLeaves caries_leaves = build_leaves(b.caries, b.params);
+  const SphereTree healthy = build_tree(healthy_leaves, b.params.branching);
+  const SphereTree caries = build_tree(caries_leaves, b.params.branching);
   const auto border = [&](const Vec3& x) { return b.lesion.distance(x); };
   const std::vector<const SphereTree*> cut{&healthy, &caries};
   const Deviation before = measure_seam_deviation(cut, b.mesh, b.object, border, 0.5, 20000);
 
   const auto parts = build_seam_leaves(b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
-  const SphereTree healthy2 =
-      add_seam_leaves(healthy, parts[0], b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
-  const SphereTree caries2 =
-      add_seam_leaves(caries, parts[1], b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
+  TreeLeaves healthy_seamed = healthy_leaves;
+  TreeLeaves caries_seamed = caries_leaves;
+  add_seam_leaves(healthy_seamed, parts[0], b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
+  add_seam_leaves(caries_seamed, parts[1], b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
+  const SphereTree healthy2 = build_tree(healthy_seamed, b.params.branching);
+  const SphereTree caries2 = build_tree(caries_seamed, b.params.branching);
   EXPECT_EQ(check_tree(healthy2, 1e-3), "");
   EXPECT_EQ(check_tree(caries2, 1e-3), "");
   EXPECT_GT(healthy2.leaf_count(), healthy.leaf_count());
@@ -92,6 +96,42 @@ TEST(SeamLeaves, CloseTheGrooveTheCutTreesLeave) {
   EXPECT_GT(before.max, b.params.tolerance) << "the cut trees alone should leave a groove";
   EXPECT_LE(after.max, b.params.tolerance) << "seam p50 " << after.p50 << " p95 " << after.p95;
   EXPECT_LT(after.p95, before.p95);
+}
+
+TEST(SeamLeaves, JoinThePartsLeavesBeforeItsOneHierarchy) {
+  const CutBlock b;
+  const TreeLeaves own = build_leaves(b.healthy, b.params);
+  const auto parts = build_seam_leaves(b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
+  ASSERT_FALSE(parts[0].empty());
+  TreeLeaves seamed = own;
+  add_seam_leaves(seamed, parts[0], b.object, std::span<const LesionShape>(&b.lesion, 1), b.params);
+
+  // The part's own leaves first, in their order, some shrunk where they poked out near the border
+  // (none grown or moved), then the seam leaves as built.
+  const std::size_t kept = seamed.leaves.size() - parts[0].size();
+  ASSERT_LE(kept, own.leaves.size());
+  std::size_t from = 0, shrunk = 0;
+  for (std::size_t i = 0; i < kept; ++i) {
+    while (from < own.leaves.size() && own.leaves[from].center != seamed.leaves[i].center) ++from;
+    ASSERT_LT(from, own.leaves.size()) << "leaf " << i << " is not one of the part's own, in order";
+    EXPECT_LE(seamed.leaves[i].radius, own.leaves[from].radius) << i;
+    if (seamed.leaves[i].radius < own.leaves[from].radius) ++shrunk;
+    ++from;
+  }
+  EXPECT_GT(shrunk, 0u) << "no leaf of the cut part pokes out at the border";
+  for (std::size_t k = 0; k < parts[0].size(); ++k) {
+    EXPECT_EQ(seamed.leaves[kept + k].center, parts[0][k].center) << k;
+    EXPECT_EQ(seamed.leaves[kept + k].radius, parts[0][k].radius) << k;
+  }
+
+  // The tree is built once over them all: leaf i is seamed leaf i.
+  const SphereTree tree = build_tree(seamed, b.params.branching);
+  ASSERT_EQ(tree.leaf_count(), seamed.leaves.size());
+  EXPECT_EQ(check_tree(tree, 1e-3), "");
+  for (std::size_t i = 0; i < seamed.leaves.size(); ++i) {
+    EXPECT_EQ(tree.nodes[tree.leaf_nodes[i]].center, seamed.leaves[i].center) << i;
+    EXPECT_EQ(tree.nodes[tree.leaf_nodes[i]].radius, seamed.leaves[i].radius) << i;
+  }
 }
 
 }  // namespace

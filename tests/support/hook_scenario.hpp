@@ -9,6 +9,7 @@
 #include "cariesim/common/trajectory.hpp"
 #include "cariesim/experiment/experiments.hpp"
 #include "cariesim/render/model.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace cariesim::test {

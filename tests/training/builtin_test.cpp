@@ -5,7 +5,7 @@
 
 #include <functional>
 
-#include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/training/headless.hpp"
 #include "training/study_schema.hpp"
 #include "training/training_support.hpp"

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 
 namespace {

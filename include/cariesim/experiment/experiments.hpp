@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/spheretree/lesion.hpp"
 
 namespace cariesim {

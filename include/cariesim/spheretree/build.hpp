@@ -51,17 +51,51 @@ struct LevelSetResolution {
 /// Throws cariesim::Error for an empty mesh.
 LevelSetResolution choose_resolution(const TriangleMesh& mesh, const TreeParams& params);
 
-/// Builds a tree of the solid bounded by `shape` (its negative region). Tight mode resolves sphere
-/// radii beyond the narrow band through a coarser rebuild of the same surface, so the band may be
-/// thin (a few voxels). Leaves come out flagged kLeafOnExposedSurface (surface leaves) or
-/// kLeafInterior (fillers, octree cells inside), leaf_depth relative to `shape`; classify_leaves
-/// refines both against the object's outer surface. Throws cariesim::Error for bad parameters.
+/// An octree's root cell: the cube every leaf cell subdivides.
+struct OctreeFrame {
+  Vec3 center = Vec3::Zero();  ///< mm, the root cell's centre
+  double edge = 0.0;           ///< mm, the root cell's edge
+  int depth = 0;               ///< levels below the root; the leaves are the cells of the deepest
+};
+
+/// What a tree builder makes: the leaves of a tree before the levels above them, so that more leaves
+/// (add_seam_leaves) join them before build_tree builds the hierarchy once.
+struct TreeLeaves {
+  TreeMode mode = TreeMode::Tight;
+  std::vector<LeafSphere> leaves;  ///< leaf index i = leaves[i]
+  /// Octree only (empty for a tight tree): each leaf's cell as its path from the root, the octant of
+  /// every level in 3 bits (bit 0 +x, bit 1 +y, bit 2 +z), the first level's octant highest, strictly
+  /// increasing (the builder's order). The levels above the leaves are these cells' ancestors.
+  std::vector<uint32_t> cells;
+  OctreeFrame octree;  ///< octree only: the root cell of `cells`
+
+  [[nodiscard]] bool empty() const { return leaves.empty(); }
+};
+
+/// Builds the leaves of a tree of the solid bounded by `shape` (its negative region). Tight mode
+/// resolves sphere radii beyond the narrow band through a coarser rebuild of the same surface, so the
+/// band may be thin (a few voxels). Leaves come out flagged kLeafOnExposedSurface (surface leaves) or
+/// kLeafInterior (fillers, octree cells inside), depth relative to `shape`, every surface leaf with a
+/// tangent (set_leaf_tangents); classify_leaves refines both against the object's outer surface once
+/// the tree is built. Throws cariesim::Error for bad parameters. Empty for an empty `shape`.
+TreeLeaves build_leaves(const LevelSet& shape, const TreeParams& params, const ProgressFn& progress = {});
+
+/// The tree over `leaves` (leaf index i = leaves.leaves[i]), its inner levels built once: tight,
+/// spheres fitted over median splits of `branching` children (build_hierarchy); octree, the cells
+/// above the leaves (the paper's hierarchy: each inner node the sphere around its cell, radius
+/// (sqrt(3)/2) * edge, whatever `branching`). Throws cariesim::Error naming what is wrong (and the leaf)
+/// for octree cells that are not the leaves' (another count, out of order, deeper than the depth, a leaf
+/// outside its cell, a bad root cell or depth), for cells given with tight leaves, and for the leaves
+/// build_hierarchy refuses. Empty leaves give an empty tree.
+SphereTree build_tree(const TreeLeaves& leaves, int branching = 4);
+
+/// build_tree(build_leaves(shape, params, progress), params.branching).
 SphereTree build_sphere_tree(const LevelSet& shape, const TreeParams& params,
                              const ProgressFn& progress = {});
 
-/// Gives surface leaves that have no tangents one from the solid's distance field (build_sphere_tree
-/// does this for the octree; the tight builder records the surfaces each sphere touches).
-void set_leaf_tangents(SphereTree& tree, const LevelSet& shape);
+/// Gives surface leaves that have no tangents one from the solid's distance field (build_leaves does
+/// this for the octree's cells; the tight builder records the surfaces each sphere touches).
+void set_leaf_tangents(std::span<LeafSphere> leaves, const LevelSet& shape);
 
 /// Builds the tool's tree from its sphere chain (leaves in chain order, tip first).
 SphereTree build_tool_tree(const std::vector<ToolSphere>& spheres, int branching = 4);
@@ -104,12 +138,14 @@ std::vector<std::vector<LeafSphere>> build_seam_leaves(const LevelSet& object,
                                                        const TreeParams& params, const SeamParams& seam = {},
                                                        const ProgressFn& progress = {});
 
-/// A part's tree with its seam leaves (build_seam_leaves) added, its inner levels rebuilt. The part's
-/// own leaves that poke out of the uncut surface (`object`) within `seam.band_mm` of a border are first
-/// shrunk to poke out no more than the seam leaves may (a fifth of their tolerance).
-SphereTree add_seam_leaves(const SphereTree& part, std::span<const LeafSphere> seam_leaves,
-                           const LevelSet& object, std::span<const LesionShape> lesions,
-                           const TreeParams& params, const SeamParams& seam = {});
+/// Adds a part's seam leaves (build_seam_leaves) to its leaves (a tight tree's: an octree's leaves are
+/// its cells, and an octree part is refused). The part's own leaves that poke out of the uncut surface
+/// (`object`) within `seam.band_mm` of a border are first shrunk to poke out no more than the seam
+/// leaves may (a fifth of their tolerance); a leaf shrunk to nothing is dropped. build_tree then builds
+/// the part's tree.
+void add_seam_leaves(TreeLeaves& part, std::span<const LeafSphere> seam_leaves, const LevelSet& object,
+                     std::span<const LesionShape> lesions, const TreeParams& params,
+                     const SeamParams& seam = {});
 
 /// Distance between the union of leaves and a surface, both ways (DESIGN.md §3).
 struct Deviation {

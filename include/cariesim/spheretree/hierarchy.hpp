@@ -1,7 +1,7 @@
 #pragma once
 /// Builds the inner levels of a sphere tree over a given set of leaf spheres: top-down median
 /// splits, `branching` children per inner node, each inner sphere bounding its children's spheres.
-/// Used by the tight mode and for the tool's chain.
+/// Used by the tight mode (build_tree) and for the tool's chain.
 
 #include <cstdint>
 #include <span>
@@ -24,8 +24,5 @@ struct LeafSphere {
 /// Builds a tree whose leaves are exactly `leaves` (leaf index i = leaves[i]). `branching` in [2, 8].
 /// An empty input gives an empty tree.
 SphereTree build_hierarchy(std::span<const LeafSphere> leaves, int branching = 4);
-
-/// The leaves of a tree, in leaf order (leaf index i = result[i]), to rebuild it with others.
-std::vector<LeafSphere> tree_leaves(const SphereTree& tree);
 
 }  // namespace cariesim

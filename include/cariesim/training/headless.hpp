@@ -26,7 +26,7 @@
 #include <string_view>
 #include <vector>
 
-#include "cariesim/scene/scene.hpp"
+#include "cariesim/scene/model_builder.hpp"
 #include "cariesim/training/run.hpp"
 #include "cariesim/training/study.hpp"
 

@@ -1,9 +1,9 @@
-// build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural shape in the world,
-// lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions, caries_i = object ∩
-// lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and materials. Then the tool,
-// gains, limits, and a check that the model is usable.
+// The model builder, build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural
+// shape in the world, lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions,
+// caries_i = object ∩ lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and
+// materials. Then the tool, gains, limits, and a check that the model is usable.
 
-#include "cariesim/spheretree/build.hpp"
+#include "cariesim/scene/model_builder.hpp"
 
 #include <fmt/format.h>
 
@@ -18,8 +18,10 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/geometry/ray_cast.hpp"
 #include "cariesim/io/file.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
 #include "cariesim/spheretree/level_set.hpp"
 
@@ -77,34 +79,16 @@ TriangleMesh object_mesh(const ObjectDesc& o) {
 // to the eye with ~30x fewer triangles than a uniform mesh (a molar: 24k instead of 697k).
 constexpr double kDisplayAdaptivity = 0.1;
 
-// Intersections of the line c + t d with a mesh: the t (mm) closest to 0 within [-range, range].
-std::optional<double> nearest_crossing(const TriangleMesh& mesh, const Vec3& c, const Vec3& d, double range) {
-  std::optional<double> best;
-  for (const auto& tri : mesh.triangles) {
-    // Möller-Trumbore, double precision, both windings.
-    const Vec3 a = mesh.vertices[tri[0]].cast<double>();
-    const Vec3 e1 = mesh.vertices[tri[1]].cast<double>() - a;
-    const Vec3 e2 = mesh.vertices[tri[2]].cast<double>() - a;
-    const Vec3 p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-14) continue;
-    const Vec3 s = c - a;
-    const double u = s.dot(p) / det;
-    if (u < 0.0 || u > 1.0) continue;
-    const Vec3 q = s.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0.0 || u + v > 1.0) continue;
-    const double t = e2.dot(q) / det;
-    if (std::abs(t) <= range && (!best || std::abs(t) < std::abs(*best))) best = t;
-  }
-  return best;
-}
-
 // A lesion in the world, its centre snapped onto the host's world surface along the normal.
 LesionShape place_lesion(const SceneDesc& scene, const LesionDesc& l, const TriangleMesh& host_world) {
   LesionShape s = lesion_shape_in_world(scene, l);
   if (!l.snap) return s;
-  const std::optional<double> t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
+  std::optional<double> t;
+  try {
+    t = nearest_crossing(host_world, s.center, s.normal, l.snap_range);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", lesion_context(l), e.what()));
+  }
   if (!t) {
     throw Error(
         fmt::format("{}: the line through placement.at along the normal does not meet the surface of '{}' "
@@ -245,17 +229,18 @@ CachedPart build_part(ObjectBuild& b, int part, int lesion, const SceneDesc& sce
   part_ls = part_level_set(b, part);
   CachedPart built;
   try {
-    built.tree = build_sphere_tree(*part_ls, b.params, part_progress(options, name));
+    TreeLeaves leaves = build_leaves(*part_ls, b.params, part_progress(options, name));
+    // A cut object: each part also gets the seam leaves on its side of the cuts, so that the parts'
+    // union follows the uncut surface across every lesion's border. Then the hierarchy, once.
+    if (!b.lesions.empty() && b.params.mode == TreeMode::Tight && !leaves.empty()) {
+      if (!b.seam)
+        b.seam = build_seam_leaves(*b.object_ls, b.shapes, b.params, {}, part_progress(options, name));
+      add_seam_leaves(leaves, (*b.seam)[static_cast<std::size_t>(part + 1)], *b.object_ls, b.shapes,
+                      b.params);
+    }
+    built.tree = build_tree(leaves, b.params.branching);
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}: {}", object_context(o), name, e.what()));
-  }
-  // A cut object: each part also gets the seam leaves on its side of the cuts (issue #10), so that
-  // the parts' union follows the uncut surface across every lesion's border.
-  if (!b.lesions.empty() && b.params.mode == TreeMode::Tight && !built.tree.empty()) {
-    if (!b.seam)
-      b.seam = build_seam_leaves(*b.object_ls, b.shapes, b.params, {}, part_progress(options, name));
-    built.tree = add_seam_leaves(built.tree, (*b.seam)[static_cast<std::size_t>(part + 1)], *b.object_ls,
-                                 b.shapes, b.params);
   }
   if (built.tree.empty()) {
     if (lesion >= 0) {
