@@ -25,6 +25,8 @@
 
 #include "cariesim/render/step.hpp"
 #include "render/state_impl.hpp"
+#include "render/substep.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim::detail {
 

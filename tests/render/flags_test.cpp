@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "render/render_support.hpp"
+#include "render/pairs.hpp"
 #include "render/state_impl.hpp"
 
 namespace cariesim {

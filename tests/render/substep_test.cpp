@@ -8,7 +8,10 @@
 #include <random>
 
 #include "render/render_support.hpp"
+#include "render/contact_rows.hpp"
+#include "render/pairs.hpp"
 #include "render/state_impl.hpp"
+#include "render/substep.hpp"
 
 namespace cariesim {
 namespace {

@@ -224,15 +224,6 @@ class PlacedTool {
   friend struct PlacedToolNodes;  // collide.cpp's queries: the world copies without place_all()
 };
 
-/// Pairs per (tool leaf, object) the haptic step asks collide() for: a large handle sphere pressed
-/// into soft tissue overlaps hundreds of its leaves, which would crowd out every other contact from
-/// a bounded pair list (the step keeps at most three rows per leaf and object).
-inline constexpr uint32_t kStepPairsPerToolLeaf = 16;
-/// The same for tool leaves away from the tip (the working end, shank and handle; issue #11): a shank
-/// resting on a tooth touches it with dozens of leaves, each overlapping dozens of the tooth's small
-/// leaves, and their nearest few already give its rows (at most three per leaf and object).
-inline constexpr uint32_t kStepPairsPerFarToolLeaf = 16;
-
 /// A bound on the work of a sequence of queries (the haptic step's, DESIGN.md §4), in work units: one
 /// per node pair a traversal visits, kContactWork per pair pushed to a contact set (the pair test, the
 /// set's heap when full, and the listing, measuring and row building that follow in the step), and

@@ -87,7 +87,7 @@ struct StepOutput {
   TunnelSpheres tunnel;
 };
 
-struct StateImpl;  // history and stage data; see src/render/state_impl.hpp and src/render/stages.hpp
+struct StateImpl;  // history and stage data; see src/render/state_impl.hpp and the stages' headers
 
 /// Everything the step carries from one cycle to the next, plus scratch reserved at creation.
 class State {
