@@ -94,6 +94,7 @@ bool State::built_for(const Model& model) const {
   return impl_->constants.object_count == model.objects.size() &&
          impl_->constants.tool_leaves == model.tool.tree.leaf_count();
 }
+int State::collected_pairs() const { return impl_->pairs.count; }
 
 namespace detail {
 
