@@ -12,10 +12,10 @@
 #include <set>
 #include <vector>
 
-#include "render/render_support.hpp"
 #include "render/contact_rows.hpp"
 #include "render/pairs.hpp"
 #include "render/regions.hpp"
+#include "render/render_support.hpp"
 #include "render/solve.hpp"
 #include "render/state_impl.hpp"
 

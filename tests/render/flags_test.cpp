@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "render/render_support.hpp"
 #include "render/pairs.hpp"
+#include "render/render_support.hpp"
 #include "render/state_impl.hpp"
 
 namespace cariesim {
