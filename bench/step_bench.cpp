@@ -39,13 +39,12 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/experiment/posture.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/scene/trajectory.hpp"
-#include "experiment/oral.hpp"
-#include "render/state_impl.hpp"
 
 namespace {
 
@@ -250,8 +249,8 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
     substeps += out.substeps;
     lagging += (out.flags & kFlagLagging) != 0;
     overflow += (out.flags & kFlagContactOverflow) != 0;
-    pairs += s.impl().pairs.count;
-    pairs_max = std::max(pairs_max, static_cast<double>(s.impl().pairs.count));
+    pairs += s.collected_pairs();
+    pairs_max = std::max(pairs_max, static_cast<double>(s.collected_pairs()));
     work += static_cast<double>(out.work);
     work_max = std::max(work_max, static_cast<double>(out.work));
     budget += (out.flags & kFlagWorkBudget) != 0;

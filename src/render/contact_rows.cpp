@@ -7,11 +7,11 @@
 // On compliant tissue (finite stiffness k) the row is regularised with compliance 1/k: the tool may
 // sink until the tissue's spring force λ = k·depth balances the coupling.
 // This builder owns the contact rows' key space (contact_key).
+#include "render/contact_rows.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "render/stages.hpp"
 
 namespace cariesim::detail {
 

@@ -11,11 +11,11 @@
 // The stages here: attach_anchors (before each solve's rows), build_friction_rows (the row builder,
 // owner of the friction rows' key space), decide_slips and apply_slips (between the final solve of a
 // sub-step and its re-solve), create_anchors (at the end of a sliding cycle).
+#include "render/friction.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "render/stages.hpp"
 
 namespace cariesim::detail {
 

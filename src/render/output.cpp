@@ -1,10 +1,13 @@
 // The output stage: the only place a StepOutput is written. Force and torque from the graphic/haptic
 // difference (paper eqs. 2, 6, 7) with the step's one clamp, against Params::limits; the state and
 // depth; the contact summaries; what the stages reported.
+#include "render/output.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 #include "render/state_impl.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim::detail {
 

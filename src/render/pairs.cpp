@@ -4,11 +4,11 @@
 // collide() (collision module) finds the pairs and their sphere-against-sphere gaps; the geometry the
 // rows use is measured here, by measure_pair, because a compliant leaf is measured against its
 // tangent patch rather than its sphere (see below), which is the step's business, not collision's.
+#include "render/pairs.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "render/state_impl.hpp"
 
 namespace cariesim::detail {
 

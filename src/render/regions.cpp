@@ -5,11 +5,11 @@
 // one region when both are compliant or both rigid, so that the tissue there is not a double spring
 // (issue #10). The region's object and material are those of the part under the tool: the one whose
 // tangent patch the founding tool leaf lies nearest sideways (the founder's when no patch covers it).
+#include "render/regions.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "render/stages.hpp"
 
 namespace cariesim::detail {
 

@@ -2,29 +2,11 @@
 // status other than Optimal raises a flag: Infeasible and BadInput (and a non-finite answer) leave
 // the tool where it is; ActiveSetFull and IterationLimit keep the solver's last dual iterate, which
 // is finite and honours the rows it had made active, and say so.
+#include "render/solve.hpp"
+
 #include <algorithm>
 
-#include "render/stages.hpp"
-
 namespace cariesim::detail {
-
-void RowSet::clear(const Mat6& G, const Vec6& x_target) {
-  problem.row_count = 0;
-  problem.G = G;
-  problem.x_target = x_target;
-  contacts = 0;
-  full = false;
-  for (auto& anchor : anchor_rows) anchor = {-1, -1};
-}
-
-bool RowSet::add(const QpRow& row, const RowMeta& row_meta) {
-  if (!problem.add(row)) {
-    full = true;
-    return false;
-  }
-  meta[problem.row_count - 1] = row_meta;
-  return true;
-}
 
 uint32_t flags_of(QpStatus status) {
   switch (status) {

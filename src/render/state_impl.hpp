@@ -1,12 +1,20 @@
 #pragma once
 // Private state of the haptic step: what carries over between cycles (graphic pose, interaction
 // state, virtual tunnel, friction anchors, the tip's last contact), what the step derives from the
-// Model, and every stage's output (src/render/stages.hpp), reserved when the state is created so that
-// the step itself never allocates.
+// Model, and every stage's output (the stages' headers, introduced by stages.hpp), reserved when the
+// state is created so that the step itself never allocates.
 
 #include <cstdint>
 
+#include "cariesim/solver/qp.hpp"
+#include "render/contact_rows.hpp"
+#include "render/friction.hpp"
+#include "render/pairs.hpp"
+#include "render/regions.hpp"
+#include "render/rows.hpp"
+#include "render/solve.hpp"
 #include "render/stages.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim {
 

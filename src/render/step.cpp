@@ -9,7 +9,10 @@
 #include <string>
 
 #include "cariesim/common/error.hpp"
+#include "render/output.hpp"
 #include "render/state_impl.hpp"
+#include "render/substep.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim {
 
@@ -91,8 +94,17 @@ bool State::built_for(const Model& model) const {
   return impl_->constants.object_count == model.objects.size() &&
          impl_->constants.tool_leaves == model.tool.tree.leaf_count();
 }
+int State::collected_pairs() const { return impl_->pairs.count; }
 
 namespace detail {
+
+// The sliding state, a stage of the cycle used only here:
+// the sliding state for one cycle (paper §3.2): bounded sub-steps toward the haptic tool, friction on
+// caries, then new anchors and what the tip touches;
+void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, StepTrace& trace);
+// what the tool touches at g after the sub-steps: whether anything (sliding rather than free), and
+// the caries the tip sank into and how deep (the penetration criteria of the next cycle).
+bool sense_tip(const Model& m, const Params& p, StateImpl& s, const Pose& g);
 
 void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& haptic, StepTrace& trace) {
   const Vec6 remaining = config_difference(haptic, s.graphic);

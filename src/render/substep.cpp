@@ -11,10 +11,13 @@
 //      solved again; if overlaps remain, the step is shortened (bisection) until it is clear.
 // The tangent-plane rows are conservative for translations, so step 4 only catches the second-order
 // effect of rotations and pairs outside the margin; it rarely runs.
+#include "render/substep.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 #include "render/state_impl.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim::detail {
 

@@ -20,11 +20,14 @@
 // probe stays until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state
 // returns to sliding and the force drops.
 // The tunnel row builder owns the tunnel rows' key space (tunnel_key).
+#include "render/tunnel.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 #include "cariesim/render/step.hpp"
 #include "render/state_impl.hpp"
+#include "render/substep.hpp"
 
 namespace cariesim::detail {
 

@@ -1,7 +1,8 @@
 // The house of docs/architecture.md, enforced: every `#include "cariesim/<module>/..."` (and every
 // private `#include "<module>/..."`) in include/cariesim/, src/ and apps/ must follow an arrow the
 // table below allows. The table is the drawing's: modules include only modules drawn below them, and
-// nothing points from device, record or render back up. A failure names the file, the line and the
+// nothing points from device, record or render back up. And bench/, apps/ and another module's tests
+// include no module's private header (src/<module>/...). A failure names the file, the line and the
 // forbidden arrow.
 #include <gtest/gtest.h>
 
@@ -63,6 +64,19 @@ std::string included_module(const std::string& path) {
   return module;
 }
 
+// The path an `#include "x"` or `#include <x>` line names (spaces allowed after the '#'), or "".
+std::string included_path(const std::string& line) {
+  std::size_t p = line.find_first_not_of(" \t");
+  if (p == std::string::npos || line[p] != '#') return "";
+  p = line.find_first_not_of(" \t", p + 1);
+  if (p == std::string::npos || line.compare(p, 7, "include") != 0) return "";
+  p = line.find_first_of("\"<", p + 7);
+  if (p == std::string::npos) return "";
+  const std::size_t end = line.find(line[p] == '"' ? '"' : '>', p + 1);
+  if (end == std::string::npos) return "";
+  return line.substr(p + 1, end - p - 1);
+}
+
 // Checks one file's text as part of `module`; appends what breaks the table.
 void check_text(const std::string& file, const std::string& module, const std::string& text,
                 std::vector<Violation>& out) {
@@ -71,16 +85,7 @@ void check_text(const std::string& file, const std::string& module, const std::s
   int number = 0;
   while (std::getline(lines, line)) {
     ++number;
-    // `#include "x"` or `#include <x>`, spaces allowed after the '#'.
-    std::size_t p = line.find_first_not_of(" \t");
-    if (p == std::string::npos || line[p] != '#') continue;
-    p = line.find_first_not_of(" \t", p + 1);
-    if (p == std::string::npos || line.compare(p, 7, "include") != 0) continue;
-    p = line.find_first_of("\"<", p + 7);
-    if (p == std::string::npos) continue;
-    const std::size_t end = line.find(line[p] == '"' ? '"' : '>', p + 1);
-    if (end == std::string::npos) continue;
-    const std::string target = included_module(line.substr(p + 1, end - p - 1));
+    const std::string target = included_module(included_path(line));
     if (target.empty() || target == module) continue;
     const auto rule = allowed().find(module);
     if (rule == allowed().end() || rule->second.count(target) == 0)
@@ -103,6 +108,24 @@ std::string file_module(const fs::path& relative) {
 bool is_source(const fs::path& p) {
   const std::string ext = p.extension().string();
   return ext == ".hpp" || ext == ".cpp" || ext == ".h" || ext == ".cc";
+}
+
+// Checks one file of bench/, apps/ or tests/ owned by `owner` (the module a test folder tests, or
+// "bench", "apps"): an include of a module's private header (src/<module>/..., found under `root`)
+// other than the owner's own is appended, as an arrow to "<module> (private)".
+void check_private(const fs::path& root, const std::string& file, const std::string& owner,
+                   const std::string& text, std::vector<Violation>& out) {
+  std::istringstream lines(text);
+  std::string line;
+  int number = 0;
+  while (std::getline(lines, line)) {
+    ++number;
+    const std::string path = included_path(line);
+    if (path.rfind("cariesim/", 0) == 0) continue;  // a public header
+    const std::string module = included_module(path);
+    if (module.empty() || module == owner || !fs::is_regular_file(root / "src" / path)) continue;
+    out.push_back({file, number, owner, module + " (private)", line});
+  }
 }
 
 std::string describe(const std::vector<Violation>& violations) {
@@ -168,6 +191,53 @@ TEST(IncludeGraph, EveryIncludeFollowsTheHouse) {
   EXPECT_GT(files, 100);
   for (const char* module : {"common", "io", "device", "render", "record", "servo", "apps"})
     EXPECT_TRUE(seen.count(module)) << module;
+}
+
+TEST(IncludeGraph, TheCheckerFindsAPrivateHeaderIncludedFromOutside) {
+  // A bench, an app or another module's test including a module's private header is reported with
+  // its line; the module's own tests, public headers and test support headers (not under src/) are not.
+  const fs::path root = CARIESIM_SOURCE_DIR;
+  const std::string text =
+      "#include \"cariesim/render/step.hpp\"\n#include \"render/state_impl.hpp\"\n"
+      "#include \"training/study_db_support.hpp\"\n# include <experiment/oral.hpp>\n";
+  std::vector<Violation> v;
+  check_private(root, "bench/x_bench.cpp", "bench", text, v);
+  ASSERT_EQ(v.size(), 2u) << describe(v);
+  EXPECT_EQ(v[0].line, 2);
+  EXPECT_EQ(v[0].to, "render (private)");
+  EXPECT_EQ(v[1].line, 4);
+  EXPECT_EQ(v[1].to, "experiment (private)");
+  v.clear();
+  check_private(root, "tests/render/x_test.cpp", "render", "#include \"render/state_impl.hpp\"\n", v);
+  EXPECT_TRUE(v.empty()) << describe(v);
+}
+
+TEST(IncludeGraph, NoBenchAppOrOtherModulesTestIncludesAPrivateHeader) {
+  // What bench/, apps/ and another module's tests use of a module is its public API
+  // (include/cariesim/); a module's private headers (src/<module>/) serve its code and its own tests.
+  const fs::path root = CARIESIM_SOURCE_DIR;
+  std::vector<Violation> violations;
+  int files = 0;
+  for (const char* top : {"bench", "apps", "tests"}) {
+    ASSERT_TRUE(fs::is_directory(root / top)) << (root / top);
+    for (const auto& entry : fs::recursive_directory_iterator(root / top)) {
+      if (!entry.is_regular_file() || !is_source(entry.path())) continue;
+      const fs::path relative = fs::relative(entry.path(), root);
+      // tests/<module>/... tests that module; bench/ and apps/ own no module.
+      std::string owner = top;
+      if (owner == "tests") {
+        auto it = relative.begin();
+        owner = ++it != relative.end() ? it->string() : "";
+      }
+      ++files;
+      std::ifstream in(entry.path(), std::ios::binary);
+      std::ostringstream text;
+      text << in.rdbuf();
+      check_private(root, relative.string(), owner, text.str(), violations);
+    }
+  }
+  EXPECT_TRUE(violations.empty()) << describe(violations);
+  EXPECT_GT(files, 100);  // the scan saw the tree
 }
 
 }  // namespace

@@ -97,8 +97,7 @@ std::map<PairKey, Contact> as_map(const ContactSet& set) {
 // Runs collide() for `placed` (already placed at `pose` with `margins`) and expects exactly the
 // brute-force pair set, with the same data; contact_geometry gives each pair's normal, point and
 // lever. Returns the number of pairs.
-std::size_t expect_brute_force_pairs(const PlacedTool& placed, const Pose& pose,
-                                     std::span<const double> margins,
+std::size_t expect_brute_force_pairs(PlacedTool& placed, const Pose& pose, std::span<const double> margins,
                                      std::span<const CollisionObject> objects, ObjectMask mask,
                                      ContactSet& set, int trial) {
   set.clear();

@@ -1,5 +1,6 @@
-// The step's first stages, tested directly (src/render/stages.hpp): collision (pairs measured once),
-// regions, contact rows and the solve, with closed-form checks on a sphere over a plane.
+// The step's first stages, tested directly (src/render/pairs.hpp, regions.hpp, contact_rows.hpp,
+// solve.hpp): collision (pairs measured once), regions, contact rows and the solve, with closed-form
+// checks on a sphere over a plane.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,7 +12,11 @@
 #include <set>
 #include <vector>
 
+#include "render/contact_rows.hpp"
+#include "render/pairs.hpp"
+#include "render/regions.hpp"
 #include "render/render_support.hpp"
+#include "render/solve.hpp"
 #include "render/state_impl.hpp"
 
 namespace cariesim {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "render/pairs.hpp"
 #include "render/render_support.hpp"
 #include "render/state_impl.hpp"
 

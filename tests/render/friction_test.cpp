@@ -8,6 +8,8 @@
 #include <cmath>
 
 #include "render/render_support.hpp"
+#include "render/friction.hpp"
+#include "render/solve.hpp"
 #include "render/stages.hpp"
 
 namespace cariesim {

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "cariesim/spheretree/build.hpp"
+#include "render/pairs.hpp"
 #include "render/state_impl.hpp"
 
 namespace cariesim::test {

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "render/render_support.hpp"
+#include "render/state_impl.hpp"
 
 namespace cariesim {
 namespace {
@@ -58,6 +59,31 @@ TEST(Step, RigidPressGivesCouplingStiffnessTimesDepth) {
     EXPECT_NEAR(out.torque.norm(), 0.0, 1e-6) << depth;
     EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance);
   }
+}
+
+// The diagnostic the step benchmarks report as `pairs`: the sphere pairs the rows of the last
+// sub-step were made of. None before any contact; some, within the stage's capacity, while pressing;
+// a step in free space (no sub-step) leaves the count of the last sub-step.
+TEST(Step, CollectedPairsAreThoseOfTheLastSubstep) {
+  const Model m = rigid_slab();
+  State s(m, probe_at(Vec3(0, 0, 5)));
+  EXPECT_EQ(run(m, s, probe_at(Vec3(0, 0, 4))).state, InteractionState::Free);
+  EXPECT_EQ(s.collected_pairs(), 0);
+  const StepOutput pressed = run(m, s, probe_at(Vec3(0, 0, kTipRadius - 0.5)), 40);
+  ASSERT_EQ(pressed.state, InteractionState::Sliding);
+  ASSERT_GT(pressed.substeps, 0);
+  const int pairs = s.collected_pairs();
+  EXPECT_GT(pairs, 0);
+  EXPECT_LE(pairs, 512);
+  EXPECT_EQ(pairs, s.impl().pairs.count);
+  // Lifted off (the sub-steps that leave the slab collect what they meet), then in free space.
+  EXPECT_EQ(run(m, s, probe_at(Vec3(0, 0, 8)), 40).state, InteractionState::Free);
+  const int last = s.collected_pairs();
+  EXPECT_EQ(last, s.impl().pairs.count);
+  const StepOutput free = run(m, s, probe_at(Vec3(0, 0, 9)));
+  EXPECT_EQ(free.state, InteractionState::Free);
+  EXPECT_EQ(free.substeps, 0);
+  EXPECT_EQ(s.collected_pairs(), last);
 }
 
 // On compliant tissue of stiffness k the force is the series stiffness times the depth.

@@ -2,11 +2,15 @@
 // rigid surface, the re-check that brings in pairs the rows missed (measured at the rows'
 // configuration), and the backtrack that keeps the tool out of rigid tissue; and the sliding state's
 // sub-step budget.
+#include "render/substep.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
+#include "render/contact_rows.hpp"
+#include "render/pairs.hpp"
 #include "render/render_support.hpp"
 #include "render/state_impl.hpp"
 

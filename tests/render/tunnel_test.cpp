@@ -8,7 +8,9 @@
 #include <cmath>
 
 #include "render/render_support.hpp"
+#include "render/solve.hpp"
 #include "render/state_impl.hpp"
+#include "render/tunnel.hpp"
 
 namespace cariesim {
 namespace {

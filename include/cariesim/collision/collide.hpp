@@ -1,14 +1,18 @@
 #pragma once
-/// Collision detection between the tool's sphere tree and every object's sphere tree (DESIGN.md §4
-/// step 1). Object trees are in world coordinates; the tool tree is in the tool frame and is placed
-/// by a pose. The query prunes with inner spheres (dual traversal) and never allocates: the contact
-/// set has a fixed capacity chosen when it is created.
+/// Collision detection between the tool's sphere tree and every object's sphere tree (docs/design.md
+/// §4 step 1). Object trees are in world coordinates; the tool tree is in the tool frame and is placed
+/// by a pose (PlacedTool). The queries prune with inner spheres (dual traversal) and never allocate:
+/// the contact set has a fixed capacity chosen when it is created. The code: tool placement
+/// (src/collision/placement.cpp), the traversals that collect pairs (traversal.cpp: collide(),
+/// sphere_collide()) and the nearest-pair queries (nearest.cpp: closest(), any_within(),
+/// sphere_closest()).
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -104,17 +108,27 @@ struct ReachMargins {
   }
 };
 
+namespace collision_detail {
+struct ToolPlacement;  // the collision module's own (src/collision/placement.hpp)
+}  // namespace collision_detail
+
 /// The tool placed in the world for one query: world-space copies of its nodes, plus a per-leaf
 /// margin (mm) by which each tool leaf is inflated (the largest distance it can move this sub-step).
 /// The nodes' world positions are made as the queries reach them: place() moves the root, and
-/// collide(), closest() and any_within() move an inner node's children when they split it. A query
-/// near the tip reaches a few dozen of the tree's nodes, and moving all of them twice a sub-step was a
-/// tenth of a lagging step (issue #11). The accessors of world positions (centers(), capsule_a(), ...)
-/// move whatever is left first, so what they return is always the whole tool at pose(). Queries
-/// write a placed tool's scratch (these world copies, the quota counters): one thread uses it at a time.
+/// collide(), closest() and any_within() move an inner node's children when they split it, so a
+/// query near the tip moves a few dozen of the tree's nodes. The accessors of world positions
+/// (centers(), capsule_a(), ...) move whatever is left first, so what they return is always the whole
+/// tool at pose(). The queries write a placed tool (its world copies, their per-leaf counters), so
+/// they take it by non-const reference: one thread uses it at a time.
 class PlacedTool {
  public:
+  /// Checks the tool tree (children after their parent, leaf indices within the leaf table, at most
+  /// 65 535 leaves; throws Error naming the node otherwise) and fits its tables once.
   explicit PlacedTool(const SphereTree& tool);
+  ~PlacedTool();
+  PlacedTool(PlacedTool&&) noexcept;
+  PlacedTool& operator=(PlacedTool&&) noexcept;
+
   /// Places the tool at `pose` (its nodes move as the queries reach them); `margin` inflates every
   /// leaf (and its ancestors).
   void place(const Pose& pose, double margin);
@@ -125,115 +139,36 @@ class PlacedTool {
   /// farthest-reaching leaf below it, which is the largest of theirs, so each node's radius is made
   /// when a query reaches it, like its centre.
   void place(const Pose& pose, const ReachMargins& margins);
-  [[nodiscard]] const SphereTree& tree() const { return *tool_; }
-  [[nodiscard]] const Pose& pose() const { return pose_; }
-  [[nodiscard]] std::span<const Vec3> centers() const {  ///< world, per node
-    place_all();
-    return centers_;
-  }
-  [[nodiscard]] std::span<const double> radii() const {  ///< per node, inflated
-    place_all();
-    return radii_;
-  }
-  [[nodiscard]] std::span<const double> leaf_margins() const {  ///< mm, per leaf
-    place_all();
-    return leaf_margin_;
-  }
+  [[nodiscard]] const SphereTree& tree() const;
+  [[nodiscard]] const Pose& pose() const;
+  /// World centres, per node.
+  [[nodiscard]] std::span<const Vec3> centers();
+  /// Inflated radii (mm), per node.
+  [[nodiscard]] std::span<const double> radii();
+  /// Margins (mm), per leaf.
+  [[nodiscard]] std::span<const double> leaf_margins();
   /// A second bound for inner nodes whose leaves lie along a line (the explorer's shank and hook): a
   /// capsule, the segment from `a` to `a + d` (world) grown by `capsule_radii()` (mm, inflated like
   /// the node's sphere), holding every leaf below. Nodes where it is not tighter than the sphere have
-  /// `has_capsule()` 0. collide() prunes a pair that misses either bound.
-  [[nodiscard]] std::span<const Vec3> capsule_a() const {  ///< world, per node
-    place_all();
-    return capsule_a_;
-  }
-  [[nodiscard]] std::span<const Vec3> capsule_d() const {  ///< world, per node
-    place_all();
-    return capsule_d_;
-  }
-  [[nodiscard]] std::span<const double> capsule_inv_dd() const { return capsule_inv_dd_; }  ///< 1/mm²
-  [[nodiscard]] std::span<const double> capsule_radii() const {  ///< mm, inflated
-    place_all();
-    return capsule_radii_;
-  }
-  [[nodiscard]] std::span<const uint8_t> has_capsule() const { return has_capsule_; }
+  /// `has_capsule()` 0. collide() prunes a pair that misses either bound. Per node.
+  [[nodiscard]] std::span<const Vec3> capsule_a();
+  [[nodiscard]] std::span<const Vec3> capsule_d();             ///< world, per node
+  [[nodiscard]] std::span<const double> capsule_radii();       ///< mm, inflated, per node
+  [[nodiscard]] std::span<const uint8_t> has_capsule() const;  ///< per node
   /// Per-leaf quotas of pairs per object for collide() (each capped by its `max_per_leaf`); an empty
   /// table (the default) leaves `max_per_leaf` alone. Size = tool leaf count.
-  void set_leaf_quota(std::span<const uint32_t> quota) { leaf_quota_.assign(quota.begin(), quota.end()); }
-  [[nodiscard]] std::span<const uint32_t> leaf_quota() const { return leaf_quota_; }
+  void set_leaf_quota(std::span<const uint32_t> quota);
+  [[nodiscard]] std::span<const uint32_t> leaf_quota() const;
 
-  /// Scratch of collide(): pairs reported per tool leaf for the object being traversed.
-  struct LeafHits {
-    uint32_t stamp = 0;
-    uint32_t count = 0;
-  };
-  [[nodiscard]] std::span<LeafHits> leaf_hits() const { return leaf_hits_; }
-  /// Scratch of collide(): per tool node, how many leaves below it are capped (have left out a pair)
-  /// for the object being traversed; a node whose leaves are all capped is not descended.
-  [[nodiscard]] std::span<LeafHits> node_caps() const { return node_caps_; }
-  /// Per tool node: its parent (the root's is itself) and the number of leaves below it (1 for a leaf).
-  [[nodiscard]] std::span<const uint32_t> parents() const { return parent_; }
-  [[nodiscard]] std::span<const uint32_t> leaves_below() const { return leaves_below_; }
-  /// A fresh stamp for one object's traversal (the tables are cleared when the stamps wrap).
-  uint32_t next_hit_stamp() const;
-  /// Moves the children of inner node `node` to the current pose (centres, capsules, and with margins
-  /// by reach their radii and leaf margins) unless this placement already has: the queries call it
-  /// before they split a tool node.
-  void reach_children(uint32_t node) const {
-    if (children_placed_[node] != place_stamp_) place_children(node);
-  }
+  /// The placement's tables and the queries' scratch, for the collision module's queries: an opaque
+  /// type outside it.
+  [[nodiscard]] collision_detail::ToolPlacement& placement() { return *placement_; }
 
  private:
-  const SphereTree* tool_;
-  Pose pose_;
-  mutable std::vector<Vec3> centers_;  // filled as the queries reach nodes (see the class comment)
-  mutable std::vector<double> radii_;        // inflated radii used for pruning and the pair test
-  mutable std::vector<double> leaf_margin_;  // per leaf
-  std::vector<uint32_t> leaf_quota_;         // per leaf, or empty
-  mutable std::vector<LeafHits> leaf_hits_;  // collide()'s per-leaf counters (scratch, not state)
-  mutable std::vector<LeafHits> node_caps_;  // collide()'s per-node capped-leaf counters (scratch)
-  std::vector<uint32_t> parent_;             // per node
-  std::vector<uint32_t> leaves_below_;       // per node
-  // Capsule bounds (see capsule_a()): tool-frame segment start, direction and true radius per node,
-  // and their world copies (the radius inflated) made by place().
-  std::vector<Vec3> tool_capsule_a_;
-  std::vector<Vec3> tool_capsule_d_;
-  std::vector<double> tool_capsule_radius_;  // mm
-  mutable std::vector<Vec3> capsule_a_;  // world copies, filled like centers_
-  mutable std::vector<Vec3> capsule_d_;
-  std::vector<double> capsule_inv_dd_;         // 1/mm², 0 for a point
-  mutable std::vector<double> capsule_radii_;  // mm
-  std::vector<uint8_t> has_capsule_;
-  void fit_capsules();
-  // The world position of node i (centre, and capsule where it has one) at the current pose.
-  void place_node(std::size_t i) const;
-  void place_children(uint32_t node) const;
-  // Starts a placement: the root is moved, every other node waits for reach_children().
-  void start_placement(const Pose& pose);
-  void place_all() const;
-  mutable uint32_t hit_stamp_ = 0;
-  // Lazy placement (see the class comment): the rotation of the current pose, and per inner node the
-  // placement whose stamp it carries when its children were moved.
-  Mat3 rot_ = Mat3::Identity();
-  uint32_t place_stamp_ = 0;
-  // Margins by reach (place(pose, ReachMargins)): radii and leaf margins are made with the centres.
-  bool reach_margins_ = false;
-  ReachMargins margins_;
-  std::vector<double> max_reach_;  // mm, per node: the largest reach of a leaf below it (its own)
-  mutable std::vector<uint32_t> children_placed_;
-  friend struct PlacedToolNodes;  // collide.cpp's queries: the world copies without place_all()
+  std::unique_ptr<collision_detail::ToolPlacement> placement_;
 };
 
-/// Pairs per (tool leaf, object) the haptic step asks collide() for: a large handle sphere pressed
-/// into soft tissue overlaps hundreds of its leaves, which would crowd out every other contact from
-/// a bounded pair list (the step keeps at most three rows per leaf and object).
-inline constexpr uint32_t kStepPairsPerToolLeaf = 16;
-/// The same for tool leaves away from the tip (the working end, shank and handle; issue #11): a shank
-/// resting on a tooth touches it with dozens of leaves, each overlapping dozens of the tooth's small
-/// leaves, and their nearest few already give its rows (at most three per leaf and object).
-inline constexpr uint32_t kStepPairsPerFarToolLeaf = 16;
-
-/// A bound on the work of a sequence of queries (the haptic step's, DESIGN.md §4), in work units: one
+/// A bound on the work of a sequence of queries (the haptic step's, docs/design.md §4), in work units: one
 /// per node pair a traversal visits, kContactWork per pair pushed to a contact set (the pair test, the
 /// set's heap when full, and the listing, measuring and row building that follow in the step), and
 /// what the caller charges for its own work (the step: kSolveWork per QP solve). A query that runs out
@@ -258,7 +193,7 @@ struct WorkBudget {
   [[nodiscard]] bool spent() const { return left < 0; }
 };
 /// Work units of one pair pushed to a contact set (WorkBudget; calibrated on step_bench's trajectories
-/// and the extreme scene of issue #14 item 10: about 130 ns against 12 ns a node pair).
+/// and the extreme scene of docs/step.md's "Work budget": about 130 ns against 12 ns a node pair).
 inline constexpr int64_t kContactWork = 10;
 
 /// Which objects take part in a query (bit i = object i); at most 64 objects.
@@ -273,9 +208,8 @@ inline constexpr ObjectMask kAllObjects = ~ObjectMask{0};
 /// no longer descends below that leaf for that object, and the combination is noted in `out.capped()`.
 /// With a `budget`, each node pair visited takes one unit; when it is spent the traversal stops and
 /// the set is marked overflowing.
-void collide(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
-             ContactSet& out, uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max(),
-             WorkBudget* budget = nullptr);
+void collide(PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask, ContactSet& out,
+             uint32_t max_per_leaf = std::numeric_limits<uint32_t>::max(), WorkBudget* budget = nullptr);
 
 /// Sphere-against-sphere geometry of a pair, computed on demand (collide() reports ids and gaps only).
 struct ContactGeometry {
@@ -285,7 +219,7 @@ struct ContactGeometry {
 };
 /// The geometry of `contact` with the tool where it is placed; when the two centres coincide the
 /// normal is the tool's +z axis (backing the tool out along its axis).
-ContactGeometry contact_geometry(const PlacedTool& tool, std::span<const CollisionObject> objects,
+ContactGeometry contact_geometry(PlacedTool& tool, std::span<const CollisionObject> objects,
                                  const Contact& contact);
 
 /// Smallest gap between any tool leaf and any leaf of the masked objects, with the pair that gives it
@@ -297,14 +231,14 @@ struct ClosestPair {
   uint32_t object_node = 0;
   bool complete = true;  ///< false when the work budget ran out: a smaller gap may exist
 };
-ClosestPair closest(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+ClosestPair closest(PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
                     double search_mm, WorkBudget* budget = nullptr);
 
 /// Whether any tool leaf lies within `search_mm` of a leaf of the masked objects: the first such pair
 /// found (nearest-first, so usually near the closest, but not necessarily it), or gap +infinity when
 /// there is none. Stops at that first pair: the cheap question "is anything near?" when the answer
 /// is usually yes (a tool in contact). `complete` as for closest().
-ClosestPair any_within(const PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
+ClosestPair any_within(PlacedTool& tool, std::span<const CollisionObject> objects, ObjectMask mask,
                        double search_mm, WorkBudget* budget = nullptr);
 
 /// Smallest gap (mm) between one sphere (world centre, radius in mm) and the leaves of `object`

@@ -87,7 +87,7 @@ struct StepOutput {
   TunnelSpheres tunnel;
 };
 
-struct StateImpl;  // history and stage data; see src/render/state_impl.hpp and src/render/stages.hpp
+struct StateImpl;  // history and stage data; see src/render/state_impl.hpp and the stages' headers
 
 /// Everything the step carries from one cycle to the next, plus scratch reserved at creation.
 class State {
@@ -104,6 +104,10 @@ class State {
   [[nodiscard]] double depth() const;
   /// True when this state was made for `model` (same object and tool-leaf counts).
   [[nodiscard]] bool built_for(const Model& model) const;
+  /// A diagnostic (bench/step_bench's `pairs`): the sphere pairs the rows of the last sub-step were
+  /// made of (collected within the leaf margins, at most 512, with those the re-check and the carried
+  /// rows added). A step that ran no sub-step (the tool in free space) leaves the count of the last.
+  [[nodiscard]] int collected_pairs() const;
 
   StateImpl& impl() { return *impl_; }
   [[nodiscard]] const StateImpl& impl() const { return *impl_; }
