@@ -212,11 +212,7 @@ MaterialTable add_materials(const SceneDesc& scene, std::vector<Material>& mater
   table.dentin.assign(scene.objects.size(), -1);
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& o = scene.objects[i];
-    Material m;
-    m.tissue = o.tissue;
-    m.stiffness = o.material.stiffness;
-    m.mu_s = o.material.mu_s;
-    m.mu_d = o.material.mu_d;
+    Material m = o.material;
     table.healthy[i] = static_cast<uint16_t>(materials.size());
     materials.push_back(m);
     if (o.enamel_thickness) {
@@ -301,7 +297,7 @@ void add_part(Model& model, const SceneDesc& scene, std::size_t object_index, in
   DisplayPart display;
   display.name = name;
   display.mesh = std::move(display_mesh);
-  display.tissue = o.tissue;
+  display.tissue = o.material.tissue;
   display.object = static_cast<int16_t>(model.objects.size());
   if (lesion >= 0) {
     const std::size_t k = static_cast<std::size_t>(lesion);

@@ -11,9 +11,9 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/render/material.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/spheretree/lesion.hpp"
-#include "cariesim/spheretree/material.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
 
 namespace cariesim {
