@@ -31,8 +31,8 @@ const char* state_name(InteractionState s) {
 
 namespace {
 
-// Model-derived constants: masks, tool leaves. An object counts as rigid for the overlap re-check
-// when every one of its leaves is of rigid material (its kind only says how it is drawn).
+// Model-derived constants: masks, tool leaves. The overlap re-check's rigid objects are the model's
+// (rigid_objects, render/model.hpp).
 ModelConstants constants_of(const Model& model) {
   ModelConstants k;
   k.object_count = model.objects.size();
@@ -40,15 +40,8 @@ ModelConstants constants_of(const Model& model) {
     throw Error("model has " + std::to_string(k.object_count) + " objects; at most 64");
   k.tool_leaves = model.tool.tree.leaf_count();
   if (k.tool_leaves == 0) throw Error("model has an empty tool tree");
-  for (std::size_t i = 0; i < k.object_count; ++i) {
-    k.all_mask |= ObjectMask{1} << i;
-    const SphereTree& tree = model.objects[i].tree;
-    const bool rigid = std::all_of(tree.leaf_nodes.begin(), tree.leaf_nodes.end(), [&](uint32_t node) {
-      const uint16_t material = tree.nodes[node].material;
-      return material < model.defaults.materials.size() && model.defaults.materials[material].rigid();
-    });
-    if (rigid && !tree.empty()) k.rigid_mask |= ObjectMask{1} << i;
-  }
+  for (std::size_t i = 0; i < k.object_count; ++i) k.all_mask |= ObjectMask{1} << i;
+  k.rigid_mask = rigid_objects(model);
   k.leaf_local.resize(k.tool_leaves);
   k.leaf_radius.resize(k.tool_leaves);
   for (std::size_t i = 0; i < k.tool_leaves; ++i) {

@@ -315,13 +315,8 @@ void add_part(Model& model, const SceneDesc& scene, std::size_t object_index, in
     lm.severity = scene.lesions[k].severity;
   }
   object.tree = std::move(tree);
-  // Rigid tissue is met only at its surface (collide() skips its interior fillers).
-  const std::vector<Material>& materials = model.defaults.materials;
-  object.surface_only =
-      std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(), [&](uint32_t node) {
-        const uint16_t mat = object.tree.nodes[node].material;
-        return mat < materials.size() && materials[mat].rigid();
-      });
+  // Rigid tissue (rigid_object) is met only at its surface (collide() skips its interior fillers).
+  object.surface_only = rigid_object(object.tree, model.defaults.materials);
   model.objects.push_back(std::move(object));
   model.display.push_back(std::move(display));
 }
