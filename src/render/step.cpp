@@ -15,20 +15,6 @@ namespace cariesim {
 
 using namespace detail;
 
-const char* state_name(InteractionState s) {
-  switch (s) {
-    case InteractionState::Free:
-      return "free";
-    case InteractionState::Sliding:
-      return "sliding";
-    case InteractionState::Inserting:
-      return "inserting";
-    case InteractionState::Extracting:
-      return "extracting";
-  }
-  return "free";
-}
-
 namespace {
 
 // Model-derived constants: masks, tool leaves. The overlap re-check's rigid objects are the model's
@@ -230,7 +216,7 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
 
   // The interaction state machine (paper Fig. 4).
   const Pose graphic_before = s.graphic;
-  bool inside = s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
+  bool inside = penetrating(s.interaction);
   if (!inside) inside = try_enter_penetration(m, p, s, haptic);
   if (inside) {
     penetration_step(m, p, s, haptic, dt, trace);

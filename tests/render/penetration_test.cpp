@@ -173,7 +173,7 @@ TEST(Penetration, TunnelStepsAllocateNothing) {
   for (int i = 0; i < 6000; ++i) {
     z += i < 4000 ? -0.002 : 0.004;  // deeper (the shank reaches the healthy block), then out
     out = step(m, s, HapticInput{upright(m, z), 0.001});
-    inside += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
+    inside += penetrating(out.state);
   }
   EXPECT_EQ(test::allocation_count() - before, 0u);
   EXPECT_GT(inside, 3000);
@@ -216,8 +216,8 @@ TEST(Penetration, RandomSessionStaysStable) {
     const StepOutput out = step(m, s, HapticInput{hand, 0.001});
     ASSERT_TRUE(out.force.allFinite() && out.torque.allFinite() && out.graphic.p.allFinite()) << "step " << i;
     largest_force = std::max(largest_force, out.force.norm());
-    const bool inside = out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
-    const bool was_inside = last == InteractionState::Inserting || last == InteractionState::Extracting;
+    const bool inside = penetrating(out.state);
+    const bool was_inside = penetrating(last);
     entries += inside && !was_inside;
     exits += !inside && was_inside;
     last = out.state;
