@@ -1,7 +1,7 @@
 // One home per concept (docs/architecture.md "One home per concept"), enforced on the source tree:
-// the step's materials are declared once, in the render module; the penetration state is tested
-// through one predicate; the record reaches the step only through its codes (render/interaction.hpp).
-// A failure names the file and the line.
+// the step's materials are declared once, in the render module; one rule says what is rigid; the
+// penetration state is tested through one predicate; the record reaches the step only through its codes
+// (render/interaction.hpp). A failure names the file and the line.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -99,6 +99,36 @@ TEST(OneHome, ThePenetrationStateIsTestedThroughOnePredicate) {
   EXPECT_TRUE(found.empty()) << lines(found);
 }
 
+// A rigidity rule spelled out: a walk over a tree's leaves that asks each leaf's material rigid().
+const std::regex& rigid_rule_written_out() {
+  static const std::regex r(R"(leaf_nodes[\s\S]{0,300}?\.rigid\(\))");
+  return r;
+}
+
+TEST(OneHome, RigidIsDecidedByOneRule) {
+  // Whether an object is rigid is rigid_object / rigid_objects (render/model.hpp): nobody else walks
+  // the leaves asking rigid(), and outside collision (which only reads it) CollisionObject::surface_only
+  // is written from rigid_object and read by nobody as a rigidity test.
+  std::vector<std::string> found = occurrences(
+      rigid_rule_written_out(), {"include/cariesim", "src", "apps", "bench"}, {"src/render/model.cpp"});
+  const std::regex surface_only(R"(surface_only)");
+  for_each_source(
+      {"include/cariesim", "src", "apps", "bench"}, [&](const std::string& file, const std::string& text) {
+        if (file.find("/collision/") != std::string::npos) return;
+        for (auto it = std::sregex_iterator(text.begin(), text.end(), surface_only);
+             it != std::sregex_iterator(); ++it) {
+          const std::size_t at = static_cast<std::size_t>(it->position());
+          const std::size_t begin = text.rfind('\n', at) == std::string::npos ? 0 : text.rfind('\n', at) + 1;
+          const std::string line = text.substr(begin, text.find('\n', at) - begin);
+          const std::size_t code = line.find_first_not_of(" \t");
+          if (line.compare(code, 2, "//") == 0) continue;
+          if (line.find("surface_only = rigid_object(") != std::string::npos) continue;
+          found.push_back(file + ":" + std::to_string(line_of(text, at)) + ": " + line);
+        }
+      });
+  EXPECT_TRUE(found.empty()) << lines(found);
+}
+
 TEST(OneHome, TheRecordReachesTheStepOnlyThroughItsCodes) {
   // The record stores the state and the flags: it includes render/interaction.hpp and no other render
   // header (render/step.hpp would bring the whole model).
@@ -129,6 +159,13 @@ TEST(OneHome, TheCheckersFindWhatTheyLookFor) {
       std::regex_search("if (s.interaction == InteractionState::Inserting && f_e > mat.f_e_star)\n"
                         "    s.interaction = InteractionState::Extracting;",
                         written_out));
+  const std::regex& rule = rigid_rule_written_out();
+  EXPECT_TRUE(
+      std::regex_search("std::all_of(tree.leaf_nodes.begin(), tree.leaf_nodes.end(), [&](uint32_t node) {\n"
+                        "  const uint16_t material = tree.nodes[node].material;\n"
+                        "  return material < materials.size() && materials[material].rigid();",
+                        rule));
+  EXPECT_FALSE(std::regex_search("const bool compliant = !mat.rigid();", rule));
   const std::regex& declaration = material_declaration();
   EXPECT_TRUE(std::regex_search("struct ObjectMaterialDesc {", declaration));
   EXPECT_TRUE(std::regex_search("enum class Tissue : uint8_t {", declaration));

@@ -187,9 +187,7 @@ TEST(Penetration, RandomSessionStaysStable) {
   const double top = top_of(m) + m.tool.tip_radius;
   std::mt19937 rng(20161122u);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  ObjectMask rigid = 0;
-  for (std::size_t i = 0; i < m.objects.size(); ++i)
-    if (m.objects[i].surface_only) rigid |= ObjectMask{1} << i;
+  const ObjectMask rigid = rigid_objects(m);
   ASSERT_NE(rigid, 0u);
   PlacedTool placed(m.tool.tree);
 
