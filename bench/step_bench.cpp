@@ -254,7 +254,7 @@ void run(benchmark::State& state, const Model& m, const std::vector<Pose>& poses
     work += static_cast<double>(out.work);
     work_max = std::max(work_max, static_cast<double>(out.work));
     budget += (out.flags & kFlagWorkBudget) != 0;
-    tunnel += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
+    tunnel += penetrating(out.state);
     const Vec3 motion = s.graphic().p - last_p;
     reversals += motion.norm() >= kChatterMotion && last_motion.norm() >= kChatterMotion &&
                  motion.dot(last_motion) < -0.5 * motion.norm() * last_motion.norm();
@@ -345,10 +345,7 @@ constexpr char kWedge[] = "real-wedge-36.csv";
 void BM_StepInsertionWithContact(benchmark::State& state) {
   static const std::vector<Pose> poses = insertion_with_contact();
   // Only the steps inside the tunnel with an additional contact row.
-  run(state, blocks(), poses, [](const StepOutput& o) {
-    return (o.state == InteractionState::Inserting || o.state == InteractionState::Extracting) &&
-           o.contacts > 0;
-  });
+  run(state, blocks(), poses, [](const StepOutput& o) { return penetrating(o.state) && o.contacts > 0; });
 }
 
 BENCHMARK(BM_StepOralFree)->Iterations(20000)->Unit(benchmark::kMicrosecond);

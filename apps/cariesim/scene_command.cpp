@@ -74,8 +74,9 @@ void print_summary(const SceneDesc& scene) {
                                    ? o.shape.file.string()
                                    : std::string(shape_kind_name(o.shape.kind));
     std::printf("  object %-16s %-8s %-9s %-5s %-10s %s, %s\n", o.name.c_str(), tooth.c_str(),
-                std::string(tissue_name(o.tissue)).c_str(), o.kind == ObjectKind::Rigid ? "rigid" : "soft",
-                stiffness_text(o.material.stiffness).c_str(), source.c_str(), tree.c_str());
+                std::string(tissue_name(o.material.tissue)).c_str(),
+                o.kind == ObjectKind::Rigid ? "rigid" : "soft", stiffness_text(o.material.stiffness).c_str(),
+                source.c_str(), tree.c_str());
   }
   for (const LesionDesc& l : scene.lesions) {
     const std::string& host = scene.objects[static_cast<std::size_t>(l.object)].name;

@@ -51,10 +51,8 @@ Stats abs_stats(const std::vector<SimSample>& samples, double t0, double t1,
 }
 
 double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples) {
-  // Objects whose every leaf is rigid (enamel, dentin, rigid blocks), as the model builder found.
-  ObjectMask rigid = 0;
-  for (std::size_t i = 0; i < model.objects.size(); ++i)
-    if (model.objects[i].surface_only) rigid |= ObjectMask{1} << i;
+  // Objects whose every leaf is rigid (enamel, dentin, rigid blocks): rigid_objects, the step's rule.
+  const ObjectMask rigid = rigid_objects(model);
   PlacedTool placed(model.tool.tree);
   double worst = 0.0;
   for (const SimSample& s : samples) {

@@ -159,8 +159,7 @@ void run_insertion(const ExperimentOptions& options, io::JsonWriter& summary) {
   std::vector<std::vector<double>> rows;
   std::vector<std::string> states;
   for (const SimSample& s : samples) {
-    const bool inside =
-        s.out.state == InteractionState::Inserting || s.out.state == InteractionState::Extracting;
+    const bool inside = penetrating(s.out.state);
     inserted = inserted || inside;
     const int p = phase_of(s, inserted && !inside);
     PhaseStats& ph = phases[p];

@@ -164,7 +164,7 @@ void run_oral(const ExperimentOptions& options, io::JsonWriter& summary) {
     std::vector<std::vector<double>> rows;
     std::vector<std::string> states;
     for (const SimSample& s : samples) {
-      const bool inside = s.out.state == InteractionState::Inserting || s.out.state == InteractionState::Extracting;
+      const bool inside = penetrating(s.out.state);
       if (inside && s.out.lesion == static_cast<int>(l)) {
         max_depth = std::max(max_depth, apex_depth(model, lesion, s.out.graphic));
         max_insertion = std::max(max_insertion, s.out.depth);

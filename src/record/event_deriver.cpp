@@ -81,15 +81,15 @@ void EventDeriver::add(const ServoSample& s) {
 // State changes, and penetration episodes from entering a lesion (inserting) until the probe is back
 // on the surface or free, with the deepest insertion reached.
 void EventDeriver::track_state(const ServoSample& s) {
-  const bool penetrating = s.state == InteractionState::Inserting || s.state == InteractionState::Extracting;
+  const bool inside = penetrating(s.state);
   if (s.state != previous_state_) {
     const std::string detail = std::string(state_name(previous_state_)) + "->" + state_name(s.state);
     instant({s.t, "state", detail, static_cast<double>(s.depth), s.lesion, 0.0});
-    if (!penetrating) close(penetration_);
+    if (!inside) close(penetration_);
   }
-  if (penetrating && penetration_.id < 0) {
+  if (inside && penetration_.id < 0) {
     open(penetration_, {s.t, "penetration", "max_depth", static_cast<double>(s.depth), s.lesion, 0.0});
-  } else if (penetrating) {
+  } else if (inside) {
     RecordedEvent& e = penetration_.event;
     e.value = std::max(e.value, static_cast<double>(s.depth));
     e.duration = s.t - e.t;

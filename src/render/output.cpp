@@ -18,8 +18,7 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
 
   // Force and torque: the coupling while sliding (eq. 2), the tunnel's stiffness while penetrating
   // (eq. 6: k_p^t, the device's maximum stiffness; eq. 7: k_θ), bounded by the device.
-  const bool inside =
-      s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
+  const bool inside = penetrating(s.interaction);
   double k_t = p.gains.k_trans, k_r = p.gains.k_rot;
   if (inside) {
     k_t = p.limits.max_stiffness;

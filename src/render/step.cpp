@@ -18,24 +18,10 @@ namespace cariesim {
 
 using namespace detail;
 
-const char* state_name(InteractionState s) {
-  switch (s) {
-    case InteractionState::Free:
-      return "free";
-    case InteractionState::Sliding:
-      return "sliding";
-    case InteractionState::Inserting:
-      return "inserting";
-    case InteractionState::Extracting:
-      return "extracting";
-  }
-  return "free";
-}
-
 namespace {
 
-// Model-derived constants: masks, tool leaves. An object counts as rigid for the overlap re-check
-// when every one of its leaves is of rigid material (its kind only says how it is drawn).
+// Model-derived constants: masks, tool leaves. The overlap re-check's rigid objects are the model's
+// (rigid_objects, render/model.hpp).
 ModelConstants constants_of(const Model& model) {
   ModelConstants k;
   k.object_count = model.objects.size();
@@ -43,15 +29,8 @@ ModelConstants constants_of(const Model& model) {
     throw Error("model has " + std::to_string(k.object_count) + " objects; at most 64");
   k.tool_leaves = model.tool.tree.leaf_count();
   if (k.tool_leaves == 0) throw Error("model has an empty tool tree");
-  for (std::size_t i = 0; i < k.object_count; ++i) {
-    k.all_mask |= ObjectMask{1} << i;
-    const SphereTree& tree = model.objects[i].tree;
-    const bool rigid = std::all_of(tree.leaf_nodes.begin(), tree.leaf_nodes.end(), [&](uint32_t node) {
-      const uint16_t material = tree.nodes[node].material;
-      return material < model.defaults.materials.size() && model.defaults.materials[material].rigid();
-    });
-    if (rigid && !tree.empty()) k.rigid_mask |= ObjectMask{1} << i;
-  }
+  for (std::size_t i = 0; i < k.object_count; ++i) k.all_mask |= ObjectMask{1} << i;
+  k.rigid_mask = rigid_objects(model);
   k.leaf_local.resize(k.tool_leaves);
   k.leaf_radius.resize(k.tool_leaves);
   for (std::size_t i = 0; i < k.tool_leaves; ++i) {
@@ -249,7 +228,7 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
 
   // The interaction state machine (paper Fig. 4).
   const Pose graphic_before = s.graphic;
-  bool inside = s.interaction == InteractionState::Inserting || s.interaction == InteractionState::Extracting;
+  bool inside = penetrating(s.interaction);
   if (!inside) inside = try_enter_penetration(m, p, s, haptic);
   if (inside) {
     penetration_step(m, p, s, haptic, dt, trace);

@@ -200,8 +200,7 @@ void penetration_step(const Model& m, const Params& p, StateImpl& s, const Pose&
 
 void tunnel_spheres(const Model& m, const StateImpl& s, TunnelSpheres& out) {
   const Tunnel& t = s.tunnel;
-  out.active = t.lesion >= 0 && (s.interaction == InteractionState::Inserting ||
-                                 s.interaction == InteractionState::Extracting);
+  out.active = t.lesion >= 0 && penetrating(s.interaction);
   if (!out.active) return;
   out.entry = t.entry;
   out.axis = t.n;

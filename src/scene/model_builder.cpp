@@ -196,11 +196,7 @@ MaterialTable add_materials(const SceneDesc& scene, std::vector<Material>& mater
   table.dentin.assign(scene.objects.size(), -1);
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& o = scene.objects[i];
-    Material m;
-    m.tissue = o.tissue;
-    m.stiffness = o.material.stiffness;
-    m.mu_s = o.material.mu_s;
-    m.mu_d = o.material.mu_d;
+    Material m = o.material;
     table.healthy[i] = static_cast<uint16_t>(materials.size());
     materials.push_back(m);
     if (o.enamel_thickness) {
@@ -286,7 +282,7 @@ void add_part(Model& model, const SceneDesc& scene, std::size_t object_index, in
   DisplayPart display;
   display.name = name;
   display.mesh = std::move(display_mesh);
-  display.tissue = o.tissue;
+  display.tissue = o.material.tissue;
   display.object = static_cast<int16_t>(model.objects.size());
   if (lesion >= 0) {
     const std::size_t k = static_cast<std::size_t>(lesion);
@@ -304,13 +300,8 @@ void add_part(Model& model, const SceneDesc& scene, std::size_t object_index, in
     lm.severity = scene.lesions[k].severity;
   }
   object.tree = std::move(tree);
-  // Rigid tissue is met only at its surface (collide() skips its interior fillers).
-  const std::vector<Material>& materials = model.defaults.materials;
-  object.surface_only =
-      std::all_of(object.tree.leaf_nodes.begin(), object.tree.leaf_nodes.end(), [&](uint32_t node) {
-        const uint16_t mat = object.tree.nodes[node].material;
-        return mat < materials.size() && materials[mat].rigid();
-      });
+  // Rigid tissue (rigid_object) is met only at its surface (collide() skips its interior fillers).
+  object.surface_only = rigid_object(object.tree, model.defaults.materials);
   model.objects.push_back(std::move(object));
   model.display.push_back(std::move(display));
 }

@@ -249,7 +249,7 @@ TreeDesc read_tree(const Reader& r, const YAML::Node& node, const std::string& p
 
 // Tissue defaults of an object: kind and healthy material.
 void apply_tissue_defaults(ObjectDesc& o) {
-  switch (o.tissue) {
+  switch (o.material.tissue) {
     case Tissue::Gingiva:
       o.kind = ObjectKind::Soft;
       o.material.stiffness = 0.3;
@@ -290,7 +290,7 @@ ObjectDesc read_object(const Reader& r, const YAML::Node& node, const std::strin
         r.choice(n, f.sub("tissue"), "tissue", {"enamel", "dentin", "gingiva", "tongue", "generic"});
     constexpr Tissue kTissues[] = {Tissue::Enamel, Tissue::Dentin, Tissue::Gingiva, Tissue::Tongue,
                                    Tissue::Generic};
-    o.tissue = kTissues[t];
+    o.material.tissue = kTissues[t];
   }
   apply_tissue_defaults(o);
   if (const auto n = f.get("kind"); n.IsDefined()) {
@@ -309,7 +309,8 @@ ObjectDesc read_object(const Reader& r, const YAML::Node& node, const std::strin
            "a soft object needs a finite stiffness (N/mm)");
   }
   if (const auto n = f.get("enamel_thickness"); n.IsDefined()) {
-    if (o.tissue != Tissue::Enamel) r.fail(n, f.sub("enamel_thickness"), "only applies to tissue enamel");
+    if (o.material.tissue != Tissue::Enamel)
+      r.fail(n, f.sub("enamel_thickness"), "only applies to tissue enamel");
     o.enamel_thickness = r.positive(n, f.sub("enamel_thickness"), 10.0, "mm");
   }
   if (const auto n = f.get("tree"); n.IsDefined()) o.tree = read_tree(r, n, f.sub("tree"));

@@ -66,8 +66,7 @@ double case_time(const TrialAnswers& a, const Recording* recording) {
 // The lesion a sample presses on: the one its tip touches while sliding, else (the tool held off by
 // another contact) the nearest whose volume is within kBlockedReach of the graphic tip; -1 when none.
 int pressed_lesion(const ServoSample& s, const std::vector<ScoredLesion>& lesions) {
-  if (s.state == InteractionState::Inserting || s.state == InteractionState::Extracting || s.contacts == 0)
-    return -1;
+  if (penetrating(s.state) || s.contacts == 0) return -1;
   if (s.lesion >= 0) return static_cast<std::size_t>(s.lesion) < lesions.size() ? s.lesion : -1;
   int nearest = -1;
   double best = kBlockedReach;

@@ -25,8 +25,7 @@ ProbeResult probe(const Model& model, int lesion_index, const Quat& q, int neigh
   const Trajectory t = experiment::probe_trajectory(model, lesion, q, &push_start, &push_end);
   ProbeResult r;
   for (const SimSample& s : simulate(model, t, 1000.0)) {
-    if ((s.out.state == InteractionState::Inserting || s.out.state == InteractionState::Extracting) &&
-        s.out.lesion == lesion_index) {
+    if (penetrating(s.out.state) && s.out.lesion == lesion_index) {
       r.inserted = true;
       r.max_apex_depth = std::max(r.max_apex_depth, experiment::apex_depth(model, lesion, s.out.graphic));
     }

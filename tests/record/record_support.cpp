@@ -19,10 +19,7 @@ ServoSample synthetic_sample(std::size_t i, double rate_hz) {
   s.torque = Vec3(10.0 * std::sin(phase), 0.25, -7.5 * std::cos(phase));
   // The four states in turn, 40 samples each, with a lesion while penetrating.
   s.state = static_cast<InteractionState>((i / 40) % 4);
-  s.depth =
-      static_cast<float>(s.state == InteractionState::Inserting || s.state == InteractionState::Extracting
-                             ? 0.01 * static_cast<double>(i % 40)
-                             : 0.0);
+  s.depth = static_cast<float>(penetrating(s.state) ? 0.01 * static_cast<double>(i % 40) : 0.0);
   s.lesion = static_cast<int8_t>(s.depth > 0.0f ? static_cast<int>(i % 3) : -1);
   s.step_us = static_cast<float>(20.0 + 5.0 * std::sin(3.0 * phase));
   s.soft_tissue_force = static_cast<float>(std::max(0.0, 2.0 * std::sin(0.1 * phase)));

@@ -174,7 +174,7 @@ TEST(Penetration, TunnelStepsAllocateNothing) {
   for (int i = 0; i < 6000; ++i) {
     z += i < 4000 ? -0.002 : 0.004;  // deeper (the shank reaches the healthy block), then out
     out = step(m, s, HapticInput{upright(m, z), 0.001});
-    inside += out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
+    inside += penetrating(out.state);
   }
   EXPECT_EQ(test::allocation_count() - before, 0u);
   EXPECT_GT(inside, 3000);
@@ -188,9 +188,7 @@ TEST(Penetration, RandomSessionStaysStable) {
   const double top = top_of(m) + m.tool.tip_radius;
   std::mt19937 rng(20161122u);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  ObjectMask rigid = 0;
-  for (std::size_t i = 0; i < m.objects.size(); ++i)
-    if (m.objects[i].surface_only) rigid |= ObjectMask{1} << i;
+  const ObjectMask rigid = rigid_objects(m);
   ASSERT_NE(rigid, 0u);
   PlacedTool placed(m.tool.tree);
 
@@ -217,8 +215,8 @@ TEST(Penetration, RandomSessionStaysStable) {
     const StepOutput out = step(m, s, HapticInput{hand, 0.001});
     ASSERT_TRUE(out.force.allFinite() && out.torque.allFinite() && out.graphic.p.allFinite()) << "step " << i;
     largest_force = std::max(largest_force, out.force.norm());
-    const bool inside = out.state == InteractionState::Inserting || out.state == InteractionState::Extracting;
-    const bool was_inside = last == InteractionState::Inserting || last == InteractionState::Extracting;
+    const bool inside = penetrating(out.state);
+    const bool was_inside = penetrating(last);
     entries += inside && !was_inside;
     exits += !inside && was_inside;
     last = out.state;

@@ -84,10 +84,7 @@ double rigid_clearance(const Model& m, const Pose& tool) {
   // The collision module's branch-and-bound closest pair (checked against brute force in its tests).
   PlacedTool placed(m.tool.tree);
   placed.place(tool, 0.0);
-  ObjectMask rigid = 0;
-  for (std::size_t i = 0; i < m.objects.size(); ++i)
-    if (m.objects[i].kind == ObjectKind::Rigid) rigid |= ObjectMask{1} << i;
-  const ClosestPair c = closest(placed, m.objects, rigid, 1.0);
+  const ClosestPair c = closest(placed, m.objects, rigid_objects(m), 1.0);
   return std::isfinite(c.gap) ? c.gap : 1.0;
 }
 

@@ -46,7 +46,8 @@ Pose probe_at(const Vec3& p);
 /// margins, then the pairs at g (every object: the step's mask) into s.pairs.
 void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot = 0.0);
 
-/// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects, capped at 1 mm.
+/// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects (rigid_objects), capped
+/// at 1 mm.
 double rigid_clearance(const Model& m, const Pose& tool);
 
 }  // namespace cariesim::test

@@ -146,6 +146,74 @@ TEST_F(BuildTest, BlockWithALesionMakesTwoPartsWithTheirMaterials) {
   EXPECT_GE(closest(placed, model.objects, kAllObjects, 1.0).gap, 0.0);
 }
 
+// Field by field: two materials are the same (the scene's and the model's).
+void expect_same_material(const Material& a, const Material& b, const std::string& what) {
+  EXPECT_EQ(a.tissue, b.tissue) << what;
+  EXPECT_EQ(a.stiffness, b.stiffness) << what;
+  EXPECT_EQ(a.mu_s, b.mu_s) << what;
+  EXPECT_EQ(a.mu_d, b.mu_d) << what;
+  EXPECT_EQ(a.aniso_dir, b.aniso_dir) << what;
+  EXPECT_EQ(a.mu_s_along, b.mu_s_along) << what;
+  EXPECT_EQ(a.mu_d_along, b.mu_d_along) << what;
+  EXPECT_EQ(a.k_e, b.k_e) << what;
+  EXPECT_EQ(a.k_c.kind, b.k_c.kind) << what;
+  EXPECT_EQ(a.k_c.values, b.k_c.values) << what;
+  EXPECT_EQ(a.k_c.bounds, b.k_c.bounds) << what;
+  EXPECT_EQ(a.k_c.layer_count, b.k_c.layer_count) << what;
+  EXPECT_EQ(a.crush_length, b.crush_length) << what;
+  EXPECT_EQ(a.f_p_star, b.f_p_star) << what;
+  EXPECT_EQ(a.f_e_star, b.f_e_star) << what;
+  EXPECT_EQ(a.k_theta, b.k_theta) << what;
+}
+
+TEST_F(BuildTest, ObjectsAndLesionsCarryTheScenesMaterialsAndOneRuleSaysWhatIsRigid) {
+  // A rigid block with a lesion and a soft pad: healthy tissue and lesions hold one Material type in
+  // the scene description, and the model's table holds those materials as they are (the lesion's
+  // with its index). Which objects are met only at their surface is the step's rigid rule.
+  const SceneDesc scene = parse_scene(R"(objects:
+  - name: block
+    shape: {type: cuboid, size: [6, 6, 4]}
+    tissue: enamel
+    material: {mu_s: 0.2, mu_d: 0.1}
+    tree: {tolerance: 0.05, max_radius: 0.8}
+  - name: pad
+    shape: {type: cuboid, size: [4, 4, 2]}
+    pose: {position: [20, 0, 0]}
+    tissue: gingiva
+    material: {stiffness: 0.4, mu_s: 0.3, mu_d: 0.25}
+    tree: {tolerance: 0.05, max_radius: 0.8}
+lesions:
+  - name: pit
+    object: block
+    placement: {at: [0, 0, 0], normal: [0, 0, 1]}
+    shape: {type: disk, size: 2.0, depth: 1.0}
+    severity: mild
+)",
+                                      "m.yaml");
+  ASSERT_EQ(scene.objects.size(), 2u);
+  EXPECT_EQ(scene.objects[1].material.tissue, Tissue::Gingiva);
+  EXPECT_EQ(scene.objects[1].material.stiffness, 0.4);
+  const Model model = build_model(scene, options());
+  ASSERT_EQ(model.objects.size(), 3u);  // block/healthy, block/pit, pad
+
+  // Each part's leaves: the scene's material of its object or lesion.
+  const std::vector<Material>& table = model.defaults.materials;
+  for (std::size_t i = 0; i < model.objects.size(); ++i) {
+    const CollisionObject& o = model.objects[i];
+    Material expected = o.lesion >= 0 ? scene.lesions[static_cast<std::size_t>(o.lesion)].material
+                                      : scene.objects[static_cast<std::size_t>(o.scene_object)].material;
+    expected.lesion = o.lesion;
+    for (const uint32_t n : o.tree.leaf_nodes)
+      expect_same_material(table.at(o.tree.nodes[n].material), expected, o.name);
+  }
+
+  // One rule: surface_only is rigid_object, the mask the step and the experiments use.
+  const ObjectMask rigid = rigid_objects(model);
+  EXPECT_EQ(rigid, ObjectMask{0b001}) << "only the healthy block is rigid";
+  for (std::size_t i = 0; i < model.objects.size(); ++i)
+    EXPECT_EQ(model.objects[i].surface_only, ((rigid >> i) & 1u) != 0) << model.objects[i].name;
+}
+
 TEST_F(BuildTest, ObjectFrameAnisotropyIsRotatedIntoTheWorld) {
   std::string yaml = block_scene("{at: [0, 0, 0], normal: [0, 0, 1]}");
   yaml.replace(yaml.find("pose: {position: [1, 2, 3]}"), 27,

@@ -71,9 +71,9 @@ TEST(BuiltinScenes, OralCavityFollowsThePaper) {
   int gingiva = 0;
   int tongue = 0;
   for (const auto& o : s.objects) {
-    gingiva += o.tissue == Tissue::Gingiva;
-    tongue += o.tissue == Tissue::Tongue;
-    if (o.tissue == Tissue::Gingiva || o.tissue == Tissue::Tongue) {
+    gingiva += o.material.tissue == Tissue::Gingiva;
+    tongue += o.material.tissue == Tissue::Tongue;
+    if (o.material.tissue == Tissue::Gingiva || o.material.tissue == Tissue::Tongue) {
       EXPECT_EQ(o.kind, ObjectKind::Soft) << o.name;
     }
   }
@@ -188,12 +188,12 @@ TEST(BuiltinScenes, RealArchIsTheScannedArch) {
   int gingiva = 0;
   int tongue = 0;
   for (const auto& o : s.objects) {
-    gingiva += o.tissue == Tissue::Gingiva;
-    tongue += o.tissue == Tissue::Tongue;
-    if (o.tissue == Tissue::Gingiva) {
+    gingiva += o.material.tissue == Tissue::Gingiva;
+    tongue += o.material.tissue == Tissue::Tongue;
+    if (o.material.tissue == Tissue::Gingiva) {
       EXPECT_EQ(o.shape.gingiva.path.size(), 16u) << "one point per tooth";
     }
-    if (o.tissue == Tissue::Gingiva || o.tissue == Tissue::Tongue) {
+    if (o.material.tissue == Tissue::Gingiva || o.material.tissue == Tissue::Tongue) {
       EXPECT_EQ(o.kind, ObjectKind::Soft) << o.name;
     }
   }

@@ -42,7 +42,7 @@ TEST(ParseScene, MinimalSceneHasDefaults) {
   EXPECT_EQ(o.shape.kind, ShapeDesc::Kind::Cuboid);
   EXPECT_EQ(o.shape.size, Vec3(10, 20, 5));
   EXPECT_EQ(o.kind, ObjectKind::Rigid);
-  EXPECT_EQ(o.tissue, Tissue::Generic);
+  EXPECT_EQ(o.material.tissue, Tissue::Generic);
   EXPECT_TRUE(std::isinf(o.material.stiffness));
   EXPECT_EQ(o.tree.params.mode, TreeMode::Tight);
   EXPECT_FALSE(o.tree.voxel.has_value());

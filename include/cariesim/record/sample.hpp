@@ -6,7 +6,7 @@
 #include <cstdint>
 
 #include "cariesim/common/math.hpp"
-#include "cariesim/render/step.hpp"
+#include "cariesim/render/interaction.hpp"
 
 namespace cariesim {
 
@@ -20,7 +20,7 @@ struct ServoSample {
   float depth = 0.0f;                               ///< mm
   float step_us = 0.0f;                             ///< µs
   float soft_tissue_force = 0.0f;                   ///< N
-  uint32_t step_flags = 0;                          ///< StepFlag bits (render/step.hpp)
+  uint32_t step_flags = 0;                          ///< StepFlag bits (render/interaction.hpp)
   uint32_t safety_flags = 0;                        ///< SafetyFlag bits (device/safety.hpp)
   uint16_t contacts = 0;                            ///< constraint rows from sphere pairs
   int8_t lesion = -1;                               ///< lesion probed or touched, -1 for none

@@ -11,9 +11,9 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/render/material.hpp"
 #include "cariesim/render/params.hpp"
 #include "cariesim/spheretree/lesion.hpp"
-#include "cariesim/spheretree/material.hpp"
 #include "cariesim/spheretree/sphere_tree.hpp"
 
 namespace cariesim {
@@ -99,5 +99,14 @@ struct Model {
   uint64_t scene_hash = 0;
   std::vector<DisplayPart> display;  ///< cold data for the viewer and reports
 };
+
+/// Whether an object is rigid: it has leaves and every leaf's material in `materials` (indexed by
+/// SphereNode::material) is rigid (Material::rigid; an index outside `materials` is not). The one rule
+/// for the model builder's CollisionObject::surface_only, the step's overlap re-check and the
+/// experiments' rigid penetration; an object's kind only says how it is drawn and whether lesions may
+/// sit on it.
+[[nodiscard]] bool rigid_object(const SphereTree& tree, const std::vector<Material>& materials);
+/// The model's rigid objects (rigid_object against model.defaults.materials): bit i for object i.
+[[nodiscard]] ObjectMask rigid_objects(const Model& model);
 
 }  // namespace cariesim

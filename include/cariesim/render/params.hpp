@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "cariesim/device/limits.hpp"
-#include "cariesim/spheretree/material.hpp"
+#include "cariesim/render/material.hpp"
 
 namespace cariesim {
 

@@ -9,35 +9,14 @@
 #include <cstdint>
 #include <memory>
 
+#include "cariesim/render/interaction.hpp"
 #include "cariesim/render/model.hpp"
 
 namespace cariesim {
 
-/// Interaction state (paper Fig. 4).
-enum class InteractionState : uint8_t { Free, Sliding, Inserting, Extracting };
-const char* state_name(InteractionState s);
-
 /// N, the axial force (|F_p| of eqs. 3-4) the decayed tissue resists the tip's advance with at apex
 /// depth `apex_depth` (mm): k_c(depth)·crush_length, our reading of eq. 5 (docs/penetration.md).
 double insertion_resistance(const Material& caries, double apex_depth);
-
-/// Output flags.
-enum StepFlag : uint32_t {
-  kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf; the last good one was used
-  kFlagJumpLimited = 1u << 1,        ///< the haptic tool moved (turned) further than max_jump
-                                     ///< (max_jump_rotation) in one step
-  kFlagInfeasible = 1u << 2,         ///< the constraints contradicted each other; the tool held still
-  kFlagContactOverflow = 1u << 3,    ///< more sphere pairs than the contact capacity
-  kFlagForceClamped = 1u << 4,       ///< force limited to the device maximum
-  kFlagTorqueClamped = 1u << 5,      ///< torque limited to the device maximum
-  kFlagLagging = 1u << 6,            ///< sub-step budget exhausted; the graphic tool is catching up
-  kFlagQpRowsFull = 1u << 7,         ///< more constraint rows than the QP capacity
-  kFlagBacktracked = 1u << 8,        ///< the solution overlapped rigid tissue and was shortened
-  kFlagWrongState = 1u << 9,         ///< the state or params were made for another model; nothing was done
-  kFlagQpActiveSetFull = 1u << 10,   ///< more rows wanted to be active than the QP holds; last iterate used
-  kFlagQpIterationLimit = 1u << 11,  ///< the QP ran out of dual steps; its last iterate was used
-  kFlagWorkBudget = 1u << 12,        ///< the step's collision work budget ran out (StepSettings::work_budget)
-};
 
 /// One contact as reported to the viewer / logs (the strongest few).
 struct ContactReport {

@@ -14,10 +14,10 @@
 #include "cariesim/common/hash.hpp"
 #include "cariesim/common/math.hpp"
 #include "cariesim/geometry/procedural.hpp"
+#include "cariesim/render/material.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/lesion.hpp"
-#include "cariesim/spheretree/material.hpp"
 
 namespace cariesim {
 
@@ -56,13 +56,6 @@ MeshLoadOptions mesh_load_options(const ShapeDesc& shape);
 /// Name used in scene files ("mesh", "cuboid", "molar", "premolar", "gingiva", "tongue").
 std::string_view shape_kind_name(ShapeDesc::Kind kind);
 
-/// Contact material of an object's healthy tissue.
-struct ObjectMaterialDesc {
-  double stiffness = std::numeric_limits<double>::infinity();  ///< N/mm; infinity = rigid
-  double mu_s = 0.0;                                           ///< static friction coefficient
-  double mu_d = 0.0;                                           ///< dynamic friction coefficient
-};
-
 /// Sphere-tree settings of one object (TreeParams plus the level-set resolution).
 struct TreeDesc {
   TreeParams params;            ///< mode, depth, tolerance, radii, leaf cap
@@ -81,8 +74,9 @@ struct ObjectDesc {
   ShapeDesc shape;   ///< geometry in the object frame
   Pose pose;         ///< object frame -> world (mm)
   ObjectKind kind = ObjectKind::Rigid;
-  Tissue tissue = Tissue::Generic;  ///< enamel, dentin, gingiva, tongue or generic
-  ObjectMaterialDesc material;      ///< healthy tissue's contact material
+  /// The healthy tissue's material: its tissue (enamel, dentin, gingiva, tongue or generic), contact
+  /// stiffness and friction; the caries fields keep their defaults. The model's material as it is.
+  Material material;
   /// mm; when set (tissue enamel), leaves deeper than this below the surface are labelled dentin
   std::optional<double> enamel_thickness;
   TreeDesc tree;

@@ -2,7 +2,8 @@
 /// Sphere trees: the one representation of every object and of the tool (paper §2.2).
 ///
 /// Layout: a flat array of nodes, node 0 is the root, the children of an inner node are contiguous
-/// (`first` .. `first + count`). Inner nodes bound their children; leaves carry a material index.
+/// (`first` .. `first + count`). Inner nodes bound their children; leaves carry a material index: the
+/// model builder assigns it (assign_materials), the haptic step looks it up; the tree knows no material.
 /// The traversal touches only `SphereNode` (hot, 32 bytes); per-leaf extras live in separate arrays.
 
 #include <array>
@@ -10,7 +11,6 @@
 #include <vector>
 
 #include "cariesim/common/math.hpp"
-#include "cariesim/spheretree/material.hpp"
 
 namespace cariesim {
 

@@ -1,4 +1,4 @@
-#include "cariesim/spheretree/material.hpp"
+#include "cariesim/render/material.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,9 @@
 #pragma once
-/// Materials carried by sphere-tree leaves: tissue label, contact stiffness, friction and, for caries,
-/// the penetration parameters of the paper (eqs. 3-9, Fig. 6, Tables 1-2).
+/// The haptic step's materials: tissue label, contact stiffness, friction and, for caries, the
+/// penetration parameters of the paper (eqs. 3-9, Fig. 6, Tables 1-2). One type for healthy tissue
+/// and lesions alike, from the scene description (scene/scene_desc.hpp) to the running Params
+/// (render/params.hpp). A sphere-tree leaf carries only an index into the model's table of them
+/// (SphereNode::material); docs/penetration.md says how the step uses them.
 
 #include <array>
 #include <cstdint>
@@ -33,7 +36,8 @@ struct KcProfile {
   [[nodiscard]] double at(double depth_mm) const;
 };
 
-/// A leaf's material. Healthy tissue is frictionless unless its material sets mu (paper eq. 2).
+/// A material of the model's table (Params::materials, indexed by SphereNode::material). Healthy tissue
+/// is frictionless unless its material sets mu (paper eq. 2); its caries fields keep their defaults.
 struct Material {
   Tissue tissue = Tissue::Generic;
   /// Contact stiffness (N/mm); infinity means rigid (no penetration allowed).
