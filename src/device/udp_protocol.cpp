@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/device/safety.hpp"
 
 namespace cariesim::bridge {
@@ -94,7 +95,7 @@ ParseResult parse_pose_body(const uint8_t* data, std::size_t size, uint16_t flag
   if (!std::isfinite(out.client_time) || !p.allFinite() || !q.coeffs().allFinite() ||
       !out.velocity.allFinite() || !out.angular_velocity.allFinite())
     return ParseResult::NonFinite;
-  if (!(std::abs(q.norm() - 1.0) <= kUnitTolerance)) return ParseResult::NonUnit;
+  if (!is_unit(q)) return ParseResult::NonUnit;
   out.pose = Pose{p, q.normalized()};
   return ParseResult::Pose;
 }

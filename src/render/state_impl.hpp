@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "cariesim/device/input_guard.hpp"
 #include "render/stages.hpp"
 
 namespace cariesim {
@@ -22,8 +23,7 @@ struct StateImpl {
 
   // History.
   Pose graphic;
-  Pose last_haptic;
-  bool have_haptic = false;
+  InputGuard input;  ///< judges each reading (device/input_guard.hpp); holds the haptic pose used last
   InteractionState interaction = InteractionState::Free;
   detail::Tunnel tunnel;
   detail::Anchors anchors{};

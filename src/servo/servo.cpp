@@ -135,7 +135,6 @@ ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& opt
   // The starting Params are published at once; later versions reuse the slots' memory.
   params_out_.write(params_);
   state_ = std::make_unique<State>(model, model.tool_home);
-  last_good_ = state_->graphic();
 }
 
 ServoLoop::~ServoLoop() { stop(); }
@@ -321,9 +320,9 @@ bool ServoLoop::update_params() {
 }
 
 int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
-  // Read the device; an unusable reading is replaced by the last good pose.
+  // Read the device. The step's input guard judges the reading (an unusable one is replaced by the
+  // last good pose) and safety acts on its verdict.
   const DeviceState input = device_.read(t);
-  if (input.valid && input.pose.finite()) last_good_ = input.pose;
 
   // Changes and announced limits, after the reading: limits a device announced before the pose it
   // sent are in force for that pose's wrench. A new version of the Params is published (into the
@@ -335,10 +334,11 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
 
   // Step the engine with the fixed dt (its output stage clamps the wrench to the Params' limits),
   // filter the wrench, render it. The wrench flags carry the step's clamp beside the safety layer's.
-  const StepOutput out = step(model_, params_.params, *state_, HapticInput{last_good_, dt_});
+  const StepOutput out =
+      step(model_, params_.params, *state_, HapticInput{input.pose, dt_, input.valid, t - input.stamp});
   Vec3 force = out.force;
   Vec3 torque = out.torque;
-  safety_.filter(force, torque, input, t);
+  safety_.filter(force, torque, out.input_faults, t);
   uint32_t wrench_flags = safety_.flags();
   if ((out.flags & kFlagForceClamped) != 0) wrench_flags |= kSafetyClampedForce;
   if ((out.flags & kFlagTorqueClamped) != 0) wrench_flags |= kSafetyClampedTorque;

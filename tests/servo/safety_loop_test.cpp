@@ -142,5 +142,58 @@ TEST(SafetyAcceptance, NaNJumpAndSilenceGetZeroOrClampedForce) {
   EXPECT_GT(loop.timing().cycles, 0u);
 }
 
+// One input guard, one parameter set: the model's InputLimits decide both the step's jump flag and
+// force safety's zeroing, cycle by cycle. A device steps 7 mm once on a model whose limit is 5 mm
+// (the default is 20): that cycle, and only that one, is a jump for both.
+class StepDevice : public Device {
+ public:
+  static constexpr uint64_t kStepAt = 100, kEnd = 300;
+  explicit StepDevice(const Model& m) : home_(m.tool_home) {}
+  [[nodiscard]] DeviceInfo info() const override { return DeviceInfo{"step", "test", {}, true}; }
+  DeviceState read(double now) override {
+    const uint64_t k = reads_.fetch_add(1);
+    DeviceState s;
+    s.stamp = now;
+    s.sequence = k + 1;
+    s.valid = true;
+    s.pose = home_;
+    if (k >= kStepAt) s.pose.p.x() += 7.0;  // mm, in free space above the block
+    return s;
+  }
+  void write(const Vec3& /*force*/, const Vec3& /*torque*/) override {}
+  [[nodiscard]] uint64_t reads() const { return reads_.load(); }
+
+ private:
+  Pose home_;
+  std::atomic<uint64_t> reads_{0};
+};
+
+TEST(SafetyAcceptance, TheStepAndSafetyJudgeJumpsByTheModelsLimits) {
+  Model m = test::friction_block();
+  m.settings.input.max_jump = 5.0;  // mm
+  StepDevice device(m);
+  SpscQueue<ServoSample> queue(20000);
+  ServoOptions o;
+  o.realtime = false;
+  o.record = &queue;
+  o.safety.ramp_time = 0.0;
+  ServoLoop loop(m, device, o);
+  loop.start();
+  ASSERT_TRUE(test::wait_for([&] { return device.reads() >= StepDevice::kEnd; }));
+  loop.stop();
+  int jumps = 0;
+  ServoSample x;
+  while (queue.pop(x)) {
+    const bool step_jump = (x.step_flags & kFlagJumpLimited) != 0;
+    const bool safety_jump = (x.safety_flags & kSafetyJump) != 0;
+    EXPECT_EQ(step_jump, safety_jump) << "t = " << x.t;
+    if (safety_jump) {
+      EXPECT_TRUE(x.force.isZero()) << "t = " << x.t;
+    }
+    jumps += safety_jump;
+  }
+  EXPECT_EQ(jumps, 1);
+}
+
 }  // namespace
 }  // namespace cariesim

@@ -45,7 +45,6 @@ inline constexpr std::size_t kHelloSize = 128;             ///< bytes
 inline constexpr std::size_t kWrenchSize = 88;             ///< bytes
 inline constexpr std::size_t kMaxPacketSize = 128;         ///< bytes, the largest valid packet
 inline constexpr std::size_t kDeviceNameSize = 32;         ///< bytes, NUL-padded ASCII in a hello
-inline constexpr double kUnitTolerance = 1e-3;             ///< | |q| - 1 | allowed in a pose
 
 /// A pose packet (client -> simulator).
 struct PosePacket {
@@ -95,7 +94,7 @@ enum class ParseResult : uint8_t {
   BadMagic,    ///< the first four bytes are not kMagic
   BadVersion,  ///< a protocol version other than kVersion
   NonFinite,   ///< a NaN or infinite number
-  NonUnit,     ///< the quaternion's length differs from 1 by more than kUnitTolerance
+  NonUnit,     ///< the quaternion is not unit (is_unit, device/input_guard.hpp: within kUnitTolerance)
 };
 /// "pose", "truncated", ...
 const char* parse_result_name(ParseResult result);
