@@ -5,7 +5,6 @@
 #include <cstring>
 
 #include "cariesim/device/input_guard.hpp"
-#include "cariesim/device/safety.hpp"
 
 namespace cariesim::bridge {
 
@@ -13,11 +12,6 @@ namespace {
 
 // Byte offsets shared by every packet (docs/device-bridge.md, "Header").
 constexpr std::size_t kOffMagic = 0, kOffVersion = 4, kOffType = 5, kOffFlags = 6, kOffSequence = 8;
-
-// The SafetyFlag bits a wrench may carry, plus its own flags; the rest are reserved.
-constexpr uint16_t kWrenchKnownFlags =
-    static_cast<uint16_t>(kSafetyClampedForce | kSafetyClampedTorque | kSafetyRamping | kSafetyStale |
-                          kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump | kWrenchLimitsAcknowledged);
 
 // Little-endian field access, independent of the host's byte order.
 uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }

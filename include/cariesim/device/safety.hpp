@@ -24,13 +24,10 @@ struct SafetyParams {
   double force_scale = 1.0;  ///< global scale in [0, 1]
 };
 
-/// What happened to a cycle's wrench on its way to the device, as records (`safety_flags`) and the
-/// UDP bridge (bits 0-6 of its wrench flags) report it.
+/// What force safety did to a cycle's wrench (ForceSafety::flags), as records (`safety_flags`) keep
+/// it. Bits 0-1 are unused: the step's output stage is the one clamp, and its flags say so
+/// (kFlagForceClamped, kFlagTorqueClamped).
 enum SafetyFlag : uint32_t {
-  /// The step's output stage clamped the force to the device's maximum. Set by the servo loop from
-  /// the step's flags (ForceSafety clamps nothing and never sets it).
-  kSafetyClampedForce = 1u << 0,
-  kSafetyClampedTorque = 1u << 1,  ///< the same for the torque
   kSafetyRamping = 1u << 2,        ///< ramping in after start or after a fault
   kSafetyStale = 1u << 3,          ///< the reading is older than InputLimits::stale_after; zeroed
   kSafetyNonFinite = 1u << 4,      ///< the reading or the wrench is not finite; zeroed
