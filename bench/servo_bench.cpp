@@ -141,10 +141,10 @@ void BM_ServoCycleOralCavity(benchmark::State& state) {
     const auto begin = std::chrono::steady_clock::now();
     const double cpu_begin = thread_cpu_us();
     const DeviceState input = device.read(t);
-    const StepOutput out = step(model, sim, HapticInput{input.pose, kDt});
+    const StepOutput out = step(model, sim, HapticInput{input.pose, kDt, input.valid, t - input.stamp});
     Vec3 force = out.force;
     Vec3 torque = out.torque;
-    safety.filter(force, torque, input, t);
+    safety.filter(force, torque, out.input_faults, t);
     device.write(force, torque);
     cycle_cpu_us.add(thread_cpu_us() - cpu_begin);
     cycle_us.add(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - begin).count());

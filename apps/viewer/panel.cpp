@@ -185,15 +185,15 @@ void ViewerApp::panel_status() {
                                                        {kFlagInfeasible, "infeasible"},
                                                        {kFlagContactOverflow, "contact overflow"},
                                                        {kFlagForceClamped, "force clamped"},
+                                                       {kFlagTorqueClamped, "torque clamped"},
                                                        {kFlagLagging, "lagging"},
                                                        {kFlagBacktracked, "backtracked"}})
                                     .c_str());
-  ImGui::Text("safety: %s", flag_names(snapshot_.safety_flags, {{kSafetyClampedForce, "force clamped"},
-                                                                {kSafetyClampedTorque, "torque clamped"},
-                                                                {kSafetyRamping, "ramping in"},
+  ImGui::Text("safety: %s", flag_names(snapshot_.safety_flags, {{kSafetyRamping, "ramping in"},
                                                                 {kSafetyStale, "stale input"},
                                                                 {kSafetyNonFinite, "non-finite"},
-                                                                {kSafetyInvalidInput, "no input"}})
+                                                                {kSafetyInvalidInput, "no input"},
+                                                                {kSafetyJump, "jump"}})
                                 .c_str());
   // The servo loop.
   ImGui::Separator();

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cariesim/device/input_guard.hpp"
+
 namespace cariesim {
 
 namespace {
@@ -10,14 +12,21 @@ namespace {
 // A negative value becomes 0 (the safe side), a non-finite one the fallback.
 double sane(double value, double fallback) { return std::isfinite(value) ? std::max(value, 0.0) : fallback; }
 
+// The safety flag of each input fault the guard reports.
+uint32_t safety_flags_of(uint32_t input_faults) {
+  uint32_t flags = 0;
+  if ((input_faults & kInputInvalid) != 0) flags |= kSafetyInvalidInput;
+  if ((input_faults & kInputNonFinite) != 0) flags |= kSafetyNonFinite;
+  if ((input_faults & kInputStale) != 0) flags |= kSafetyStale;
+  if ((input_faults & kInputJump) != 0) flags |= kSafetyJump;
+  return flags;
+}
+
 }  // namespace
 
 ForceSafety::ForceSafety(const SafetyParams& params) : params_(params) {
   const SafetyParams defaults;
   params_.ramp_time = sane(params.ramp_time, defaults.ramp_time);
-  params_.stale_after = sane(params.stale_after, defaults.stale_after);
-  params_.max_jump = sane(params.max_jump, defaults.max_jump);
-  params_.max_jump_rotation = sane(params.max_jump_rotation, defaults.max_jump_rotation);
   set_force_scale(params.force_scale);
 }
 
@@ -27,27 +36,13 @@ void ForceSafety::set_force_scale(double scale) {
 
 void ForceSafety::reset() {
   ramp_start_ = -1.0;
-  has_last_ = false;
   flags_ = 0;
 }
 
-void ForceSafety::filter(Vec3& force, Vec3& torque, const DeviceState& input, double now) {
-  flags_ = 0;
-  // Faults: an invalid or non-finite reading, a non-finite wrench, a stale reading, a jump.
-  if (!input.valid) flags_ |= kSafetyInvalidInput;
-  const bool pose_finite = input.pose.finite();
-  if (!pose_finite || !force.allFinite() || !torque.allFinite() || !std::isfinite(now))
-    flags_ |= kSafetyNonFinite;
-  if (!(now - input.stamp <= params_.stale_after)) flags_ |= kSafetyStale;
-  if (pose_finite) {
-    const Quat q = input.pose.q.normalized();
-    if (has_last_ && ((input.pose.p - last_position_).norm() > params_.max_jump ||
-                      q.angularDistance(last_orientation_) > params_.max_jump_rotation))
-      flags_ |= kSafetyJump;
-    last_position_ = input.pose.p;
-    last_orientation_ = q;
-    has_last_ = true;
-  }
+void ForceSafety::filter(Vec3& force, Vec3& torque, uint32_t input_faults, double now) {
+  // Faults: the guard's verdict on the reading, a non-finite wrench or time.
+  flags_ = safety_flags_of(input_faults);
+  if (!force.allFinite() || !torque.allFinite() || !std::isfinite(now)) flags_ |= kSafetyNonFinite;
   if ((flags_ & kSafetyFaultMask) != 0) {
     force.setZero();
     torque.setZero();

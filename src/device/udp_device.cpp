@@ -17,10 +17,29 @@
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/cpu.hpp"
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/safety.hpp"
 
 namespace cariesim {
 
 namespace {
+
+// The wrench packet's flags (the protocol's own word) for a cycle's status: the step's clamps, what
+// force safety did, whether announced limits are in force.
+uint16_t wrench_flags(const DeviceStatus& status) {
+  uint16_t flags = 0;
+  const auto set = [&](bool on, uint16_t bit) {
+    if (on) flags |= bit;
+  };
+  set(status.force_clamped, bridge::kWrenchForceClamped);
+  set(status.torque_clamped, bridge::kWrenchTorqueClamped);
+  set((status.safety_flags & kSafetyRamping) != 0, bridge::kWrenchRamping);
+  set((status.safety_flags & kSafetyStale) != 0, bridge::kWrenchInputStale);
+  set((status.safety_flags & kSafetyNonFinite) != 0, bridge::kWrenchInputNonFinite);
+  set((status.safety_flags & kSafetyInvalidInput) != 0, bridge::kWrenchInputInvalid);
+  set((status.safety_flags & kSafetyJump) != 0, bridge::kWrenchInputJump);
+  set(status.limits_acknowledged, bridge::kWrenchLimitsAcknowledged);
+  return flags;
+}
 
 // The drift between client and simulator clocks that the staleness test absorbs (0.1 %).
 constexpr double kDriftAllowance = 1e-3;
@@ -488,8 +507,7 @@ void UdpDevice::write(const Vec3& force, const Vec3& torque) {
   w.torque = torque.allFinite() ? torque : Vec3::Zero();
   w.state = status_.state;
   w.depth = std::isfinite(status_.depth) ? status_.depth : 0.0;
-  w.flags = static_cast<uint16_t>(status_.safety_flags & 0x7fu);
-  if (status_.limits_acknowledged) w.flags |= bridge::kWrenchLimitsAcknowledged;
+  w.flags = wrench_flags(status_);
   if (!have_pose_) return;  // nobody to answer yet
   // Hand it to the sender and wake it (a futex wake when it sleeps; no lock).
   outbound_.write(w);

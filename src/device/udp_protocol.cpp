@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "cariesim/device/safety.hpp"
+#include "cariesim/device/input_guard.hpp"
 
 namespace cariesim::bridge {
 
@@ -12,11 +12,6 @@ namespace {
 
 // Byte offsets shared by every packet (docs/device-bridge.md, "Header").
 constexpr std::size_t kOffMagic = 0, kOffVersion = 4, kOffType = 5, kOffFlags = 6, kOffSequence = 8;
-
-// The SafetyFlag bits a wrench may carry, plus its own flags; the rest are reserved.
-constexpr uint16_t kWrenchKnownFlags =
-    static_cast<uint16_t>(kSafetyClampedForce | kSafetyClampedTorque | kSafetyRamping | kSafetyStale |
-                          kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump | kWrenchLimitsAcknowledged);
 
 // Little-endian field access, independent of the host's byte order.
 uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
@@ -94,7 +89,7 @@ ParseResult parse_pose_body(const uint8_t* data, std::size_t size, uint16_t flag
   if (!std::isfinite(out.client_time) || !p.allFinite() || !q.coeffs().allFinite() ||
       !out.velocity.allFinite() || !out.angular_velocity.allFinite())
     return ParseResult::NonFinite;
-  if (!(std::abs(q.norm() - 1.0) <= kUnitTolerance)) return ParseResult::NonUnit;
+  if (!is_unit(q)) return ParseResult::NonUnit;
   out.pose = Pose{p, q.normalized()};
   return ParseResult::Pose;
 }

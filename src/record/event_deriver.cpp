@@ -10,14 +10,15 @@ namespace cariesim::record {
 
 EventDeriver::EventDeriver(double soft_tissue_threshold, double period)
     : threshold_(soft_tissue_threshold), period_(period) {
-  // The flag runs that become episodes: overruns, then safety faults, then engine flags.
+  // The flag runs that become episodes: overruns, then safety faults and the step's clamps (kind
+  // "safety"), then engine flags.
   flags_ = {{
       {false, 0u, "overrun", "cycles", {}},
       {true, kSafetyStale, "safety", "stale_input", {}},
       {true, kSafetyNonFinite, "safety", "non_finite", {}},
       {true, kSafetyInvalidInput, "safety", "invalid_input", {}},
-      {true, kSafetyClampedForce, "safety", "force_clamped", {}},
-      {true, kSafetyClampedTorque, "safety", "torque_clamped", {}},
+      {false, kFlagForceClamped, "safety", "force_clamped", {}},  // the step's clamp, the one clamp
+      {false, kFlagTorqueClamped, "safety", "torque_clamped", {}},
       {false, kFlagNonFiniteInput, "engine", "non_finite_pose", {}},
       {false, kFlagJumpLimited, "engine", "jump_limited", {}},
       {false, kFlagInfeasible, "engine", "infeasible", {}},

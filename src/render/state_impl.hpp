@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/solver/qp.hpp"
 #include "render/contact_rows.hpp"
 #include "render/friction.hpp"
@@ -30,8 +31,7 @@ struct StateImpl {
 
   // History.
   Pose graphic;
-  Pose last_haptic;
-  bool have_haptic = false;
+  InputGuard input;  ///< judges each reading (device/input_guard.hpp); holds the haptic pose used last
   InteractionState interaction = InteractionState::Free;
   detail::Tunnel tunnel;
   detail::Anchors anchors{};

@@ -58,7 +58,7 @@ State::State(const Model& model, const Pose& start) : impl_(std::make_unique<Sta
     clear = !(closest(s.collision.placed, model.objects, s.constants.all_mask, 0.0).gap < 0.0);
   }
   s.graphic = clear ? pose : model.tool_home;
-  s.last_haptic = s.graphic;
+  s.input = InputGuard(model.settings.input, s.graphic);
 }
 
 State::~State() = default;
@@ -207,24 +207,19 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   StepTrace trace;
   s.collision.budget = WorkBudget{std::max<int64_t>(m.settings.work_budget, 0), 0};
 
-  // Input checks: a non-finite pose reuses the last good one; a jump beyond max_jump, or a turn beyond
-  // max_jump_rotation, is flagged (the sub-step budget then limits how far the graphic tool follows
-  // in this cycle).
-  Pose haptic = in.pose;
-  if (!(haptic.p.allFinite() && haptic.q.coeffs().allFinite() && haptic.q.norm() > 0.5)) {
-    trace.flags |= kFlagNonFiniteInput;
-    haptic = s.have_haptic ? s.last_haptic : s.graphic;
-  }
-  haptic.q.normalize();
+  // The input guard (device/input_guard.hpp) judges the reading: an invalid or unusable pose reuses
+  // the last good one; a jump beyond max_jump, or a turn beyond max_jump_rotation, is flagged (the
+  // sub-step budget then limits how far the graphic tool follows in this cycle).
+  const uint32_t input_faults = s.input.judge(in.pose, in.valid, in.age);
+  if ((input_faults & kInputNonFinite) != 0) trace.flags |= kFlagNonFiniteInput;
+  if ((input_faults & kInputJump) != 0) trace.flags |= kFlagJumpLimited;
+  const Pose haptic = s.input.pose();
   const double dt = std::isfinite(in.dt) && in.dt > 0.0 && in.dt <= 0.1 ? in.dt : 1.0 / m.servo_rate;
   // The budget is per kWorkBudgetCycle of simulated time: a shorter cycle lets further sub-steps use
   // its share of it, so the work per second stays the same at any rate. The first sub-step keeps the
   // whole budget, so a heavy contact never holds the tool for want of it.
   s.collision.substep_budget = static_cast<int64_t>(static_cast<double>(s.collision.budget.left) *
                                                     std::min(1.0, dt / kWorkBudgetCycle));
-  if (s.have_haptic && ((haptic.p - s.last_haptic.p).norm() > m.settings.max_jump ||
-                        haptic.q.angularDistance(s.last_haptic.q) > m.settings.max_jump_rotation))
-    trace.flags |= kFlagJumpLimited;
 
   // The interaction state machine (paper Fig. 4).
   const Pose graphic_before = s.graphic;
@@ -241,12 +236,12 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   const Vec6 moved = config_difference(s.graphic, graphic_before);
   s.last_motion = moved.head<3>().norm();
   s.last_rotation = moved.tail<3>().norm();
-  s.last_haptic = haptic;
-  s.have_haptic = true;
   ++s.steps;
   trace.work = s.collision.budget.used;
   if (s.collision.budget.spent()) trace.flags |= kFlagWorkBudget;
-  return make_output(m, p, s, haptic, trace, start);
+  StepOutput out = make_output(m, p, s, haptic, trace, start);
+  out.input_faults = input_faults;
+  return out;
 }
 
 StepOutput step(const Model& m, State& state, const HapticInput& in) {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/device/udp_protocol.hpp"
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/io/file.hpp"
 
 namespace cariesim {
@@ -17,9 +17,6 @@ namespace cariesim {
 namespace {
 
 constexpr std::array<std::string_view, 8> kColumns{"t", "px", "py", "pz", "qw", "qx", "qy", "qz"};
-// A quaternion's length may differ from 1 by this much (the UDP bridge's rule, bridge::kUnitTolerance):
-// rounding in a file written with a few digits, not a pose that means something else.
-constexpr double kUnitTolerance = bridge::kUnitTolerance;
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
@@ -88,10 +85,11 @@ class TrajectoryCsvParser {
     if (!out_.t.empty() && !(v[0] > out_.t.back()))
       fail(origin_, line_no, fields_[index_[0]].second,
            "time " + std::string(fields_[index_[0]].first) + " s does not increase");
-    // One rule with the UDP bridge: a unit quaternion (within kUnitTolerance, then normalised);
-    // another length is an error, not something to guess the meaning of.
+    // The input guard's rule, as for the UDP bridge: a unit quaternion (is_unit: within
+    // kUnitTolerance, then normalised); another length is an error, not something to guess the
+    // meaning of.
     Quat q(v[4], v[5], v[6], v[7]);
-    if (!(std::abs(q.norm() - 1.0) <= kUnitTolerance))
+    if (!is_unit(q))
       fail(origin_, line_no, fields_[index_[4]].second,
            "quaternion (qw,qx,qy,qz) has length " + std::to_string(q.norm()) +
                "; a unit quaternion is expected (within " + std::to_string(kUnitTolerance) + ")");

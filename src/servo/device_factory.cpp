@@ -67,7 +67,7 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::string_view rest,
     udp.host = std::string(rest.substr(colon + 1));
     if (udp.host.empty()) bad_spec(spec, "empty host (expected udp:PORT[:HOST])");
   }
-  udp.timeout = options.udp_timeout;
+  udp.timeout = options.input.stale_after;
   udp.limits = options.limits;
   udp.home = options.home;
   if (!options.realtime) udp.realtime_priority = 0;

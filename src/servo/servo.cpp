@@ -135,7 +135,6 @@ ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& opt
   // The starting Params are published at once; later versions reuse the slots' memory.
   params_out_.write(params_);
   state_ = std::make_unique<State>(model, model.tool_home);
-  last_good_ = state_->graphic();
 }
 
 ServoLoop::~ServoLoop() { stop(); }
@@ -321,9 +320,9 @@ bool ServoLoop::update_params() {
 }
 
 int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
-  // Read the device; an unusable reading is replaced by the last good pose.
+  // Read the device. The step's input guard judges the reading (an unusable one is replaced by the
+  // last good pose) and safety acts on its verdict.
   const DeviceState input = device_.read(t);
-  if (input.valid && input.pose.finite()) last_good_ = input.pose;
 
   // Changes and announced limits, after the reading: limits a device announced before the pose it
   // sent are in force for that pose's wrench. A new version of the Params is published (into the
@@ -334,16 +333,17 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   }
 
   // Step the engine with the fixed dt (its output stage clamps the wrench to the Params' limits),
-  // filter the wrench, render it. The wrench flags carry the step's clamp beside the safety layer's.
-  const StepOutput out = step(model_, params_.params, *state_, HapticInput{last_good_, dt_});
+  // filter the wrench, render it. The device's status carries the step's clamp beside what the safety
+  // layer did.
+  const StepOutput out =
+      step(model_, params_.params, *state_, HapticInput{input.pose, dt_, input.valid, t - input.stamp});
   Vec3 force = out.force;
   Vec3 torque = out.torque;
-  safety_.filter(force, torque, input, t);
-  uint32_t wrench_flags = safety_.flags();
-  if ((out.flags & kFlagForceClamped) != 0) wrench_flags |= kSafetyClampedForce;
-  if ((out.flags & kFlagTorqueClamped) != 0) wrench_flags |= kSafetyClampedTorque;
-  device_.set_status(
-      DeviceStatus{state_code(out.state), out.depth, wrench_flags, out.flags, limits_announced_});
+  safety_.filter(force, torque, out.input_faults, t);
+  const uint32_t safety_flags = safety_.flags();
+  device_.set_status(DeviceStatus{state_code(out.state), out.depth, safety_flags, out.flags,
+                                  limits_announced_, (out.flags & kFlagForceClamped) != 0,
+                                  (out.flags & kFlagTorqueClamped) != 0});
   device_.write(force, torque);
 
   // Timing of this cycle's work; an overrun ended after the next deadline.
@@ -367,7 +367,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   snapshot_.device = input;
   snapshot_.force = force;
   snapshot_.torque = torque;
-  snapshot_.safety_flags = wrench_flags;
+  snapshot_.safety_flags = safety_flags;
   snapshot_.t = t;
   snapshot_.cycle = cycles;
   snapshot_.overruns = overruns_.load(std::memory_order_relaxed);
@@ -389,7 +389,7 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
     s.step_us = static_cast<float>(out.step_us);
     s.soft_tissue_force = static_cast<float>(out.soft_tissue_force);
     s.step_flags = out.flags;
-    s.safety_flags = wrench_flags;
+    s.safety_flags = safety_flags;
     s.contacts = static_cast<uint16_t>(std::clamp(out.contacts, 0, 65535));
     s.lesion = static_cast<int8_t>(std::clamp(out.lesion, -1, 127));
     s.state = out.state;

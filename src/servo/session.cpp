@@ -20,7 +20,7 @@ std::unique_ptr<Device> device_from_spec(const Model& model, const SessionOption
   DeviceOptions device;
   device.home = model.tool_home;
   device.limits = model.defaults.limits;
-  device.udp_timeout = options.udp_timeout;
+  device.input = model.settings.input;
   device.realtime = options.realtime;
   return make_device(options.device, device);
 }

@@ -137,7 +137,8 @@ TEST(UdpDevice, SendsTheWrenchAsGivenWithTheStatus) {
   DeviceStatus status;
   status.state = 2;  // inserting
   status.depth = 0.75;
-  status.safety_flags = kSafetyClampedForce | kSafetyRamping;
+  status.force_clamped = true;
+  status.safety_flags = kSafetyRamping;
   status.limits_acknowledged = true;
   device.set_status(status);
   device.write(Vec3(0, 0, 40.0), Vec3(600.0, 0, 0));
@@ -148,19 +149,61 @@ TEST(UdpDevice, SendsTheWrenchAsGivenWithTheStatus) {
   EXPECT_EQ(w.torque, Vec3(600.0, 0, 0));
   EXPECT_EQ(w.state, 2);
   EXPECT_DOUBLE_EQ(w.depth, 0.75);
-  EXPECT_EQ(w.flags, kSafetyClampedForce | kSafetyRamping | bridge::kWrenchLimitsAcknowledged);
+  EXPECT_EQ(w.flags,
+            bridge::kWrenchForceClamped | bridge::kWrenchRamping | bridge::kWrenchLimitsAcknowledged);
+  EXPECT_EQ(w.flags, 0x8005) << "the bits on the wire are the documented ones (docs/device-bridge.md)";
 
   // Without the acknowledgement the flag is clear; a non-finite wrench, which the protocol forbids,
   // goes out as zero. (It answers the next pose: each pose is answered once.)
   client.send(pose(2));
   ASSERT_TRUE(eventually([&] { return device.read(now_s()).sequence == 2; }));
   status.limits_acknowledged = false;
+  status.force_clamped = false;
   status.safety_flags = 0;
   device.set_status(status);
   device.write(Vec3(std::nan(""), 0, 0), Vec3::Zero());
   ASSERT_TRUE(client.receive(w));
   EXPECT_EQ(w.flags, 0);
   EXPECT_TRUE(w.force.isZero());
+  device.stop();
+}
+
+// The wrench flags are the protocol's own word (bridge::WrenchFlag): each fact of the cycle's status
+// sets its documented bit, and nothing else does.
+TEST(UdpDevice, EachStatusSetsItsWrenchFlag) {
+  UdpOptions o;
+  o.port = 0;
+  o.realtime_priority = 0;
+  UdpDevice device(o);
+  device.start();
+  Client client(device.port());
+  struct Case {
+    void (*set)(DeviceStatus&);
+    uint16_t bit;
+  };
+  const Case cases[] = {
+      {[](DeviceStatus& s) { s.force_clamped = true; }, 0x0001},
+      {[](DeviceStatus& s) { s.torque_clamped = true; }, 0x0002},
+      {[](DeviceStatus& s) { s.safety_flags = kSafetyRamping; }, 0x0004},
+      {[](DeviceStatus& s) { s.safety_flags = kSafetyStale; }, 0x0008},
+      {[](DeviceStatus& s) { s.safety_flags = kSafetyNonFinite; }, 0x0010},
+      {[](DeviceStatus& s) { s.safety_flags = kSafetyInvalidInput; }, 0x0020},
+      {[](DeviceStatus& s) { s.safety_flags = kSafetyJump; }, 0x0040},
+      {[](DeviceStatus& s) { s.limits_acknowledged = true; }, 0x8000},
+      {[](DeviceStatus& s) { s.step_flags = ~0u; }, 0x0000},  // the step's word is not sent
+  };
+  uint32_t sequence = 0;
+  for (const Case& c : cases) {
+    client.send(pose(++sequence));
+    ASSERT_TRUE(eventually([&] { return device.read(now_s()).sequence == sequence; }));
+    DeviceStatus status;
+    c.set(status);
+    device.set_status(status);
+    device.write(Vec3::Zero(), Vec3::Zero());
+    bridge::WrenchPacket w;
+    ASSERT_TRUE(client.receive(w));
+    EXPECT_EQ(w.flags, c.bit) << sequence;
+  }
   device.stop();
 }
 

@@ -161,6 +161,27 @@ TEST(EventDeriver, SafetyAndEngineFlagRuns) {
   EXPECT_EQ(engine[1].value, 5.0);
 }
 
+// The clamp episodes come from the step's flags (the one clamp, its output stage), not from
+// safety_flags, which say only what force safety did.
+TEST(EventDeriver, ClampEpisodesComeFromTheStepsFlags) {
+  Events events;
+  for (std::size_t i = 0; i < 300; ++i) {
+    ServoSample s = at(i);
+    if (i >= 20 && i < 50) s.step_flags = kFlagForceClamped;
+    if (i >= 100 && i < 110) s.step_flags = kFlagTorqueClamped;
+    if (i >= 150 && i < 160) s.safety_flags = 0x3u;  // bits no longer set: no episode
+    events.add(s);
+  }
+  events.finish();
+  const auto safety = events.of("safety");
+  ASSERT_EQ(safety.size(), 2u);
+  EXPECT_EQ(safety[0].detail, "force_clamped");
+  EXPECT_EQ(safety[0].value, 30.0);
+  EXPECT_EQ(safety[1].detail, "torque_clamped");
+  EXPECT_EQ(safety[1].value, 10.0);
+  EXPECT_TRUE(events.of("engine").empty());
+}
+
 TEST(EventDeriver, ButtonEdgesAndGaps) {
   Events events;
   std::size_t index = 0;

@@ -163,6 +163,35 @@ TEST(Step, TurnIsFlaggedLikeAJump) {
   EXPECT_FALSE(out.flags & kFlagJumpLimited) << "holding the turned pose is no jump";
 }
 
+// The step's input stage is the input guard (device/input_guard.hpp) with the model's limits: its
+// verdict is the output's input_faults, its jump the step's flag; an invalid reading (a device with no
+// pose) holds the last good pose like a non-finite one; a stale reading is used but reported.
+TEST(Step, TheInputGuardJudgesWithTheModelsLimits) {
+  Model m = rigid_slab();
+  m.settings.input.max_jump = 5.0;  // mm
+  m.settings.input.stale_after = 0.01;  // s
+  State s(m, probe_at(Vec3(0, 0, 1)));
+  run(m, s, probe_at(Vec3(0, 0, 1)), 2);
+  StepOutput out = step(m, s, HapticInput{probe_at(Vec3(3, 0, 1)), 0.001});
+  EXPECT_EQ(out.input_faults, 0u) << "3 mm is within the model's 5 mm";
+  EXPECT_FALSE(out.flags & kFlagJumpLimited);
+  out = step(m, s, HapticInput{probe_at(Vec3(10, 0, 1)), 0.001});
+  EXPECT_EQ(out.input_faults, static_cast<uint32_t>(kInputJump)) << "7 mm is beyond it";
+  EXPECT_TRUE(out.flags & kFlagJumpLimited);
+  out = step(m, s, HapticInput{probe_at(Vec3(30, 0, 1)), 0.001, false, 0.0});
+  EXPECT_EQ(out.input_faults, static_cast<uint32_t>(kInputInvalid));
+  EXPECT_EQ(out.haptic.p, Vec3(10, 0, 1)) << "an invalid reading holds the last good pose";
+  EXPECT_FALSE(out.flags & kFlagNonFiniteInput);
+  out = step(m, s, HapticInput{probe_at(Vec3(10.5, 0, 1)), 0.001, true, 0.02});
+  EXPECT_EQ(out.input_faults, static_cast<uint32_t>(kInputStale));
+  EXPECT_EQ(out.haptic.p, Vec3(10.5, 0, 1)) << "a stale reading is used; safety zeroes its force";
+  Pose long_q = probe_at(Vec3(10.5, 0, 1));
+  long_q.q.coeffs() *= 2.0;  // not a rotation: not normalised into one
+  out = step(m, s, HapticInput{long_q, 0.001});
+  EXPECT_EQ(out.input_faults, static_cast<uint32_t>(kInputNonFinite));
+  EXPECT_TRUE(out.flags & kFlagNonFiniteInput);
+}
+
 // A wedge: the tool squeezed between two rigid walls closing in from both sides, pushed down into
 // the gap. Contradictory constraints must give a finite, bounded output and no penetration.
 TEST(Step, WedgeStaysFiniteAndOutsideRigidTissue) {

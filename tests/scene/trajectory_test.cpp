@@ -48,7 +48,7 @@ TEST(Trajectory, ColumnsInAnyOrderAndQuaternionsNormalised) {
 }
 
 // Issue #14 item 9: a non-unit quaternion was silently normalised here and rejected by the UDP
-// bridge. One rule now: unit within bridge::kUnitTolerance, else an error at its line and column.
+// bridge. One rule now: unit within kUnitTolerance (is_unit), else an error at its line and column.
 TEST(Trajectory, NonUnitQuaternionsAreRejectedAsByTheBridge) {
   const std::string e = error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0,2,0,0,0\n");
   EXPECT_NE(e.find("traj.csv:3:9: quaternion (qw,qx,qy,qz) has length 2"), std::string::npos) << e;

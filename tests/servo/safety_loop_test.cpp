@@ -3,7 +3,7 @@
 // a device with low limits that presses the tool into the block (the force reaches the limit), then
 // sends NaN, then jumps 100 mm, then falls silent. Every rendered wrench is checked, cycle by cycle:
 // the one clamp (the step's output stage, against the device's limits) holds through the safety
-// layer, and its flag reaches the samples.
+// layer, and its flag reaches the samples (the step's flags).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -100,9 +100,9 @@ TEST(SafetyAcceptance, NaNJumpAndSilenceGetZeroOrClampedForce) {
     const bool zero = x.force.isZero() && x.torque.isZero();
     switch (x.buttons) {
       case kPress:
-        // The step clamped (its flag), the samples say so (the wrench flag).
-        clamped_in_press += (x.safety_flags & kSafetyClampedForce) != 0;
-        EXPECT_EQ((x.safety_flags & kSafetyClampedForce) != 0, (x.step_flags & kFlagForceClamped) != 0);
+        // The step clamped (its flag), force safety did not (it never clamps).
+        clamped_in_press += (x.step_flags & kFlagForceClamped) != 0;
+        EXPECT_EQ(x.safety_flags & ~static_cast<uint32_t>(kSafetyRamping), 0u) << "t = " << x.t;
         break;
       case kNaN:
         // Non-finite input: exactly zero.
@@ -140,6 +140,59 @@ TEST(SafetyAcceptance, NaNJumpAndSilenceGetZeroOrClampedForce) {
   EXPECT_GT(after_jump_force, 0);
   EXPECT_GT(stale_cycles, 50);
   EXPECT_GT(loop.timing().cycles, 0u);
+}
+
+// One input guard, one parameter set: the model's InputLimits decide both the step's jump flag and
+// force safety's zeroing, cycle by cycle. A device steps 7 mm once on a model whose limit is 5 mm
+// (the default is 20): that cycle, and only that one, is a jump for both.
+class StepDevice : public Device {
+ public:
+  static constexpr uint64_t kStepAt = 100, kEnd = 300;
+  explicit StepDevice(const Model& m) : home_(m.tool_home) {}
+  [[nodiscard]] DeviceInfo info() const override { return DeviceInfo{"step", "test", {}, true}; }
+  DeviceState read(double now) override {
+    const uint64_t k = reads_.fetch_add(1);
+    DeviceState s;
+    s.stamp = now;
+    s.sequence = k + 1;
+    s.valid = true;
+    s.pose = home_;
+    if (k >= kStepAt) s.pose.p.x() += 7.0;  // mm, in free space above the block
+    return s;
+  }
+  void write(const Vec3& /*force*/, const Vec3& /*torque*/) override {}
+  [[nodiscard]] uint64_t reads() const { return reads_.load(); }
+
+ private:
+  Pose home_;
+  std::atomic<uint64_t> reads_{0};
+};
+
+TEST(SafetyAcceptance, TheStepAndSafetyJudgeJumpsByTheModelsLimits) {
+  Model m = test::friction_block();
+  m.settings.input.max_jump = 5.0;  // mm
+  StepDevice device(m);
+  SpscQueue<ServoSample> queue(20000);
+  ServoOptions o;
+  o.realtime = false;
+  o.record = &queue;
+  o.safety.ramp_time = 0.0;
+  ServoLoop loop(m, device, o);
+  loop.start();
+  ASSERT_TRUE(test::wait_for([&] { return device.reads() >= StepDevice::kEnd; }));
+  loop.stop();
+  int jumps = 0;
+  ServoSample x;
+  while (queue.pop(x)) {
+    const bool step_jump = (x.step_flags & kFlagJumpLimited) != 0;
+    const bool safety_jump = (x.safety_flags & kSafetyJump) != 0;
+    EXPECT_EQ(step_jump, safety_jump) << "t = " << x.t;
+    if (safety_jump) {
+      EXPECT_TRUE(x.force.isZero()) << "t = " << x.t;
+    }
+    jumps += safety_jump;
+  }
+  EXPECT_EQ(jumps, 1);
 }
 
 }  // namespace

@@ -43,9 +43,11 @@ struct DeviceStatus {
   /// 0 free, 1 sliding, 2 inserting, 3 extracting. The servo loop converts its InteractionState.
   uint8_t state = 0;
   double depth = 0.0;                ///< mm, insertion depth
-  uint32_t safety_flags = 0;         ///< SafetyFlag bits of this cycle's wrench (device/safety.hpp)
+  uint32_t safety_flags = 0;         ///< SafetyFlag bits: what force safety did (device/safety.hpp)
   uint32_t step_flags = 0;           ///< the engine step's flag bits (render/step.hpp StepFlag)
   bool limits_acknowledged = false;  ///< limits the device announced (poll_limits) are in force now
+  bool force_clamped = false;        ///< the step's output stage clamped the force to the maximum
+  bool torque_clamped = false;       ///< the same for the torque
 };
 
 /// What a device said about its limits (Device::poll_limits): limits it announced, or that the

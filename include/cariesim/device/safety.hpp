@@ -1,42 +1,38 @@
 #pragma once
 /// The force safety layer every device goes through (DESIGN.md §5): ramp in at start, zero force when
-/// the input is stale or not finite, a global force scale. Allocation-free; used on the servo thread.
+/// the input is at fault or the wrench not finite, a global force scale. Allocation-free; used on the
+/// servo thread.
 ///
-/// A reading is a fault, and the wrench is zeroed, when it is marked invalid, is not finite (pose,
-/// or the wrench itself), is older than `stale_after`, or jumped further than `max_jump` (or turned
-/// further than `max_jump_rotation`) from the previous reading. After a fault clears the force ramps
-/// in again from zero over `ramp_time`, as at start. The layer only ever scales the wrench down (by
-/// at most 1) or zeroes it: the one clamp to the device's limits is the haptic step's output stage
-/// (against Params::limits, which hold what the device announced), so a wrench that went through
-/// both never exceeds the limits.
+/// The layer judges no reading itself: the input guard (device/input_guard.hpp) does, once, in the
+/// haptic step, and its verdict (StepOutput::input_faults) comes in here. A reading that is invalid,
+/// not finite, stale or jumped is a fault, as is a non-finite wrench or time, and the wrench is zeroed.
+/// After a fault clears the force ramps in again from zero over `ramp_time`, as at start. The layer
+/// only ever scales the wrench down (by at most 1) or zeroes it: the one clamp to the device's limits
+/// is the haptic step's output stage (against Params::limits, which hold what the device announced),
+/// so a wrench that went through both never exceeds the limits.
 
 #include <cstdint>
 
-#include "cariesim/device/device.hpp"
+#include "cariesim/common/math.hpp"
 
 namespace cariesim {
 
-/// How the safety layer judges readings and scales the wrench.
+/// How the safety layer scales the wrench (the limits readings are judged by are the input guard's,
+/// InputLimits, one set for the step and the layer).
 struct SafetyParams {
-  double ramp_time = 1.0;     ///< s, from zero to full force after start (and after a fault clears)
-  double stale_after = 0.05;  ///< s, a reading older than this zeroes the force
-  double force_scale = 1.0;   ///< global scale in [0, 1]
-  double max_jump = 20.0;     ///< mm, a larger move between two readings is a fault
-  double max_jump_rotation = 0.5;  ///< rad, a larger turn between two readings is a fault
+  double ramp_time = 1.0;    ///< s, from zero to full force after start (and after a fault clears)
+  double force_scale = 1.0;  ///< global scale in [0, 1]
 };
 
-/// What happened to a cycle's wrench on its way to the device, as records (`safety_flags`) and the
-/// UDP bridge (bits 0-6 of its wrench flags) report it.
+/// What force safety did to a cycle's wrench (ForceSafety::flags), as records (`safety_flags`) keep
+/// it. Bits 0-1 are unused: the step's output stage is the one clamp, and its flags say so
+/// (kFlagForceClamped, kFlagTorqueClamped).
 enum SafetyFlag : uint32_t {
-  /// The step's output stage clamped the force to the device's maximum. Set by the servo loop from
-  /// the step's flags (ForceSafety clamps nothing and never sets it).
-  kSafetyClampedForce = 1u << 0,
-  kSafetyClampedTorque = 1u << 1,  ///< the same for the torque
   kSafetyRamping = 1u << 2,        ///< ramping in after start or after a fault
-  kSafetyStale = 1u << 3,          ///< the reading is older than SafetyParams::stale_after; zeroed
+  kSafetyStale = 1u << 3,          ///< the reading is older than InputLimits::stale_after; zeroed
   kSafetyNonFinite = 1u << 4,      ///< the reading or the wrench is not finite; zeroed
   kSafetyInvalidInput = 1u << 5,   ///< the reading is marked invalid (none yet, or ended); zeroed
-  kSafetyJump = 1u << 6,           ///< the reading jumped (turned) further than SafetyParams::max_jump
+  kSafetyJump = 1u << 6,           ///< the reading jumped (turned) further than InputLimits::max_jump
                                    ///< (max_jump_rotation); zeroed
 };
 /// The flags that mean the force was zeroed.
@@ -46,27 +42,25 @@ inline constexpr uint32_t kSafetyFaultMask =
 /// The safety filter of one servo loop (servo thread only, apart from the const accessors).
 class ForceSafety {
  public:
-  /// Takes the parameters; out-of-range values are brought into range (negative times and jumps
-  /// become 0, the scale is clamped to [0, 1], non-finite values fall back to the defaults).
+  /// Takes the parameters; out-of-range values are brought into range (a negative ramp time becomes
+  /// 0, the scale is clamped to [0, 1], non-finite values fall back to the defaults).
   explicit ForceSafety(const SafetyParams& params = {});
-  /// Filters a wrench (N, N·mm) in place for the reading `input` at servo time `now` (s): zeroed on a
-  /// fault, otherwise scaled by the ramp and the global scale (never up).
-  void filter(Vec3& force, Vec3& torque, const DeviceState& input, double now);
+  /// Filters a wrench (N, N·mm) in place at servo time `now` (s), given the input guard's verdict on
+  /// the cycle's reading (`input_faults`, InputFault bits): zeroed on a fault, otherwise scaled by
+  /// the ramp and the global scale (never up).
+  void filter(Vec3& force, Vec3& torque, uint32_t input_faults, double now);
   [[nodiscard]] uint32_t flags() const { return flags_; }    ///< SafetyFlag bits of the last call
   [[nodiscard]] uint64_t faults() const { return faults_; }  ///< calls that zeroed the force
   /// Sets the global scale; clamped to [0, 1], a non-finite value gives 0.
   void set_force_scale(double scale);
   /// The parameters in force (after bringing them into range).
   [[nodiscard]] const SafetyParams& params() const { return params_; }
-  /// Forgets the previous reading and restarts the ramp (a new start of the loop); keeps the counter.
+  /// Restarts the ramp (a new start of the loop); keeps the counter.
   void reset();
 
  private:
   SafetyParams params_;
-  double ramp_start_ = -1.0;           // s; negative = not started
-  Vec3 last_position_ = Vec3::Zero();  // mm, the previous finite reading
-  Quat last_orientation_ = Quat::Identity();  // the previous finite reading's
-  bool has_last_ = false;
+  double ramp_start_ = -1.0;  // s; negative = not started
   uint32_t flags_ = 0;
   uint64_t faults_ = 0;
 };

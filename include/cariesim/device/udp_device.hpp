@@ -18,6 +18,7 @@
 
 #include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/device/udp_protocol.hpp"
 
 namespace cariesim {
@@ -31,7 +32,7 @@ enum class BridgeVerdict : uint8_t {
   BadMagic,       ///< rejected: not this protocol
   BadVersion,     ///< rejected: another protocol version
   NonFinite,      ///< rejected: a NaN or infinite number
-  NonUnit,        ///< rejected: the quaternion is not unit (within bridge::kUnitTolerance)
+  NonUnit,        ///< rejected: the quaternion is not unit (is_unit: within kUnitTolerance)
   Duplicate,      ///< rejected: the sequence number was seen last
   OutOfOrder,     ///< rejected: older than the newest accepted sequence number
   Stale,          ///< rejected: delayed in transit by more than the timeout
@@ -78,7 +79,7 @@ class BridgeInbox {
  public:
   /// `timeout` (s): the largest accepted transit delay; `session_timeout` (s): silence that ends a
   /// session.
-  explicit BridgeInbox(double timeout = 0.05, double session_timeout = 1.0);
+  explicit BridgeInbox(double timeout = InputLimits{}.stale_after, double session_timeout = 1.0);
   /// Judges one datagram from `source` (an opaque address key, not 0) received at `recv_time` (s,
   /// any monotonic clock). On AcceptedPose/AcceptedHello, packet() holds it.
   BridgeVerdict accept(const uint8_t* data, std::size_t size, uint64_t source, double recv_time);
@@ -144,7 +145,9 @@ class ReplyBudget {
 struct UdpOptions {
   uint16_t port = 47000;           ///< UDP port to listen on (0: any free port, see UdpDevice::port())
   std::string host = "127.0.0.1";  ///< address to bind ("0.0.0.0" for every interface)
-  double timeout = 0.05;           ///< s, largest transit delay of an accepted pose
+  /// s, largest transit delay of an accepted pose: the staleness readings are judged by
+  /// (InputLimits::stale_after, which the device factory passes)
+  double timeout = InputLimits{}.stale_after;
   double session_timeout = 1.0;    ///< s, silence after which another client may connect
   /// What info() reports until a hello announces the device's own limits (the factory passes the
   /// scene's). The bridge itself enforces nothing: the servo loop tightens its Params to a hello's.

@@ -3,7 +3,7 @@
 /// versioned little-endian binary protocol through which any lab device program (OpenHaptics,
 /// Force Dimension, CHAI3D) drives the simulator. Client -> simulator: pose packets (tool pose,
 /// optionally velocity, buttons) and a hello packet announcing the device's limits. Simulator ->
-/// client: wrench packets (force, torque, interaction state, insertion depth, safety flags) that echo
+/// client: wrench packets (force, torque, interaction state, insertion depth, wrench flags) that echo
 /// the sequence number of the pose they answer.
 ///
 /// The parser is strict: a datagram is accepted only when every byte has its documented meaning.
@@ -33,10 +33,22 @@ enum class PacketType : uint8_t {
 enum PoseFlag : uint16_t {
   kPoseHasVelocity = 1u << 0,  ///< 48 more bytes: linear (mm/s) and angular (rad/s) velocity
 };
-/// Wrench packet flags (bytes 6-7): bits 0-6 are the SafetyFlag bits of the wrench, plus these.
+/// Wrench packet flags (bytes 6-7, docs/device-bridge.md "Wrench"): the protocol's own word, what
+/// happened to this wrench on its way out. The bridge composes it from the cycle's DeviceStatus.
 enum WrenchFlag : uint16_t {
+  kWrenchForceClamped = 1u << 0,         ///< the step's output stage clamped the force to the maximum
+  kWrenchTorqueClamped = 1u << 1,        ///< the same for the torque
+  kWrenchRamping = 1u << 2,              ///< force safety is ramping in (after start or a fault)
+  kWrenchInputStale = 1u << 3,           ///< the pose is stale; the wrench is zero
+  kWrenchInputNonFinite = 1u << 4,       ///< the pose (or the wrench) is not finite; the wrench is zero
+  kWrenchInputInvalid = 1u << 5,         ///< no valid pose (none yet); the wrench is zero
+  kWrenchInputJump = 1u << 6,            ///< the pose jumped (turned); the wrench is zero this cycle
   kWrenchLimitsAcknowledged = 1u << 15,  ///< a hello's limits are in force
 };
+/// Every defined wrench flag; the other bits are reserved (0).
+inline constexpr uint16_t kWrenchKnownFlags =
+    kWrenchForceClamped | kWrenchTorqueClamped | kWrenchRamping | kWrenchInputStale | kWrenchInputNonFinite |
+    kWrenchInputInvalid | kWrenchInputJump | kWrenchLimitsAcknowledged;
 
 inline constexpr std::size_t kHeaderSize = 12;             ///< bytes: magic, version, type, flags, sequence
 inline constexpr std::size_t kPoseSize = 80;               ///< bytes, pose packet without velocity
@@ -45,7 +57,6 @@ inline constexpr std::size_t kHelloSize = 128;             ///< bytes
 inline constexpr std::size_t kWrenchSize = 88;             ///< bytes
 inline constexpr std::size_t kMaxPacketSize = 128;         ///< bytes, the largest valid packet
 inline constexpr std::size_t kDeviceNameSize = 32;         ///< bytes, NUL-padded ASCII in a hello
-inline constexpr double kUnitTolerance = 1e-3;             ///< | |q| - 1 | allowed in a pose
 
 /// A pose packet (client -> simulator).
 struct PosePacket {
@@ -76,7 +87,7 @@ struct HelloPacket {
 /// A wrench packet (simulator -> client).
 struct WrenchPacket {
   uint32_t sequence = 0;       ///< echo of the pose packet this wrench answers
-  uint16_t flags = 0;          ///< SafetyFlag bits (0-6) and WrenchFlag bits
+  uint16_t flags = 0;          ///< WrenchFlag bits
   uint8_t state = 0;           ///< interaction state: 0 free, 1 sliding, 2 inserting, 3 extracting
   double server_time = 0.0;    ///< s, the simulator's servo clock
   double client_time = 0.0;    ///< s, echo of that pose packet's client time
@@ -95,7 +106,7 @@ enum class ParseResult : uint8_t {
   BadMagic,    ///< the first four bytes are not kMagic
   BadVersion,  ///< a protocol version other than kVersion
   NonFinite,   ///< a NaN or infinite number
-  NonUnit,     ///< the quaternion's length differs from 1 by more than kUnitTolerance
+  NonUnit,     ///< the quaternion is not unit (is_unit, device/input_guard.hpp: within kUnitTolerance)
 };
 /// "pose", "truncated", ...
 const char* parse_result_name(ParseResult result);

@@ -33,9 +33,10 @@ constexpr bool penetrating(InteractionState s) {
 
 /// Output flags (StepOutput::flags).
 enum StepFlag : uint32_t {
-  kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf; the last good one was used
+  kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf or not a unit quaternion; the
+                                     ///< last good one was used (kInputNonFinite)
   kFlagJumpLimited = 1u << 1,        ///< the haptic tool moved (turned) further than max_jump
-                                     ///< (max_jump_rotation) in one step
+                                     ///< (max_jump_rotation) in one step (kInputJump)
   kFlagInfeasible = 1u << 2,         ///< the constraints contradicted each other; the tool held still
   kFlagContactOverflow = 1u << 3,    ///< more sphere pairs than the contact capacity
   kFlagForceClamped = 1u << 4,       ///< force limited to the device maximum

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cariesim/collision/collide.hpp"
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/geometry/mesh.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/render/material.hpp"
@@ -47,10 +48,12 @@ struct StepSettings {
   int max_substeps = 6;            ///< per step; the graphic tool lags behind beyond that
   int max_rechecks = 3;            ///< collision re-checks at the solution per sub-step
   double rigid_tolerance = 0.005;  ///< mm, allowed overlap with rigid leaves at the end of a step
-  double max_jump = 20.0;          ///< mm, a larger haptic jump in one step is flagged and limited
-  double max_jump_rotation = 0.5;  ///< rad, a larger haptic turn in one step is flagged the same way
-  double contact_margin = 0.02;    ///< mm, extra margin when collecting contacts
-  double reference_dt = 0.001;     ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
+  /// How each reading is judged (device/input_guard.hpp): a jump of more than max_jump (mm) or
+  /// max_jump_rotation (rad) in one step is flagged and limited; the servo loop's force safety and
+  /// the UDP bridge use the same limits (stale_after).
+  InputLimits input;
+  double contact_margin = 0.02;  ///< mm, extra margin when collecting contacts
+  double reference_dt = 0.001;   ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
   double max_give_speed = 40.0;

@@ -39,9 +39,13 @@ struct TunnelSpheres {
   bool active = false;
 };
 
+/// One reading for the step. The step's input guard (device/input_guard.hpp) judges it against
+/// Model::settings.input; its verdict is StepOutput::input_faults.
 struct HapticInput {
   Pose pose;          ///< the haptic tool (device) pose, tool frame in world
   double dt = 0.001;  ///< s, servo period
+  bool valid = true;  ///< false: the device has no reading (none yet, or its source ended)
+  double age = 0.0;   ///< s, how old the reading is (servo time minus its stamp)
 };
 
 struct StepOutput {
@@ -50,10 +54,13 @@ struct StepOutput {
   Vec3 force = Vec3::Zero();   ///< N, to render on the device, at the tool-frame origin
   Vec3 torque = Vec3::Zero();  ///< N·mm, to render on the device, about the tool-frame origin
   InteractionState state = InteractionState::Free;
-  double depth = 0.0;         ///< mm, insertion depth along the tunnel axis
-  int lesion = -1;            ///< lesion being probed (penetration) or touched by the tip
-  int contacts = 0;           ///< constraint rows from sphere pairs in the final solve
-  uint32_t flags = 0;         ///< StepFlag bits
+  double depth = 0.0;  ///< mm, insertion depth along the tunnel axis
+  int lesion = -1;     ///< lesion being probed (penetration) or touched by the tip
+  int contacts = 0;    ///< constraint rows from sphere pairs in the final solve
+  uint32_t flags = 0;  ///< StepFlag bits
+  /// InputFault bits (device/input_guard.hpp): the input guard's verdict on this reading, which the
+  /// force safety layer zeroes the wrench on (ForceSafety::filter)
+  uint32_t input_faults = 0;
   double normal_force = 0.0;  ///< N, the force along the contacts' net normal (inserted: the axis) (Fig. 16)
   double soft_tissue_force = 0.0;  ///< N, largest normal force on gingiva/tongue (damage events)
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing

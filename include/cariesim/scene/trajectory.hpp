@@ -20,8 +20,9 @@ inline constexpr std::uintmax_t kMaxTrajectoryBytes = std::uintmax_t{1} << 30;
 
 /// Parses trajectory CSV text; `origin` names it in messages. Throws cariesim::Error
 /// "origin:line:column: message" on a missing column, a non-number, a non-finite value, a quaternion
-/// whose length is not 1 within bridge::kUnitTolerance (the UDP bridge's rule), or times that do not
-/// increase. Unit quaternions are normalised (rounding only). A UTF-8 byte order mark is skipped.
+/// whose length is not 1 within kUnitTolerance (is_unit, device/input_guard.hpp: the rule of the
+/// input guard and the UDP bridge), or times that do not increase. Unit quaternions are normalised
+/// (rounding only). A UTF-8 byte order mark is skipped.
 Trajectory parse_trajectory_csv(std::string_view text, const std::string& origin);
 /// Reads a trajectory CSV file line by line (io::LineReader): a regular file of at most
 /// kMaxTrajectoryBytes; a folder, FIFO or device is refused naming its kind, before any read.

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cariesim/device/device.hpp"
+#include "cariesim/device/input_guard.hpp"
 #include "cariesim/device/limits.hpp"
 
 namespace cariesim {
@@ -17,8 +18,10 @@ namespace cariesim {
 struct DeviceOptions {
   Pose home;            ///< where `null` holds the tool and `udp` reports it before a client (tool_home)
   DeviceLimits limits;  ///< the simulator's device limits (Model::defaults.limits), which info() reports
-  double udp_timeout = 0.05;  ///< s, the UDP bridge's largest accepted transit delay
-  bool realtime = true;       ///< the UDP bridge's threads ask for SCHED_FIFO (UdpOptions::realtime_priority)
+  /// How readings are judged (Model::settings.input, device/input_guard.hpp): the UDP bridge's largest
+  /// accepted transit delay is `input.stale_after`, the age at which the step calls a reading stale.
+  InputLimits input;
+  bool realtime = true;  ///< the UDP bridge's threads ask for SCHED_FIFO (UdpOptions::realtime_priority)
 };
 
 /// Makes a device from a spec. Throws cariesim::Error naming the spec when it is unknown or bad

@@ -108,7 +108,7 @@ struct ServoOptions {
   /// to two CPUs of the process's affinity (none when it has only one: the standby is then off, as
   /// realtime_status() says). The standby sleeps between its checks (no polling).
   bool standby = true;
-  SafetyParams safety;                       ///< ramp, staleness, jump, global force scale
+  SafetyParams safety;                       ///< ramp and global force scale
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
   /// The Params to start from (e.g. a restarted session's, with what the user tuned); their material
   /// count must be the model's. Default: initial_params(model, device limits).
@@ -130,10 +130,12 @@ Params initial_params(const Model& model, const DeviceLimits& device);
 /// fixed period 1/rate_hz: read the device, apply queued parameter changes and limits the device
 /// announced (its Params), step the engine with dt = 1/rate_hz (never the measured delta), filter
 /// the wrench through ForceSafety, write it to the device, publish a snapshot (and the Params when
-/// they changed), push a sample. A reading that is invalid or not finite is replaced by the last
-/// good pose (the safety layer zeroes the force). The cycle allocates nothing, takes no lock and
-/// does no I/O. When the loop falls more than a period behind, it skips the missed deadlines
-/// instead of running them back to back (the servo clock follows the wall clock).
+/// they changed), push a sample. The step's input guard judges each reading against the model's
+/// InputLimits (Model::settings.input): one that is invalid or not finite is replaced by the last
+/// good pose, and on any fault (also a stale reading or a jump) the safety layer zeroes the force.
+/// The cycle allocates nothing, takes no lock and does no I/O. When the loop falls more than a
+/// period behind, it skips the missed deadlines instead of running them back to back (the servo
+/// clock follows the wall clock).
 ///
 /// With ServoOptions::standby a second thread on another CPU runs any cycle the servo thread has not
 /// claimed a quarter period after its deadline. Cycles are claimed one at a time through one atomic
@@ -237,7 +239,6 @@ class ServoLoop {
   std::atomic<double> elapsed_{0.0};  // s, wall time run by the loop over every run
   double time_base_ = 0.0;            // s, servo time at which the current run started
   // The thread running the cycle only.
-  Pose last_good_;
   ServoSnapshot snapshot_;
   bool limits_announced_ = false;  // the device announced limits and they are in force
   int64_t rate_mark_ns_ = 0;

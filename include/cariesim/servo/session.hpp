@@ -43,8 +43,9 @@ struct SessionOptions {
   bool realtime = true;         ///< ask for SCHED_FIFO (the servo thread, the UDP bridge's threads)
   double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)
   bool standby = true;              ///< a standby servo thread on a second CPU (ServoOptions::standby)
-  SafetyParams safety;          ///< the force safety layer's ramp, staleness, jump and global scale
-  double udp_timeout = 0.05;    ///< s, the UDP bridge's largest accepted transit delay
+  /// The force safety layer's ramp and global scale (readings are judged by the model's InputLimits,
+  /// Model::settings.input, which also bound the UDP bridge's transit delay)
+  SafetyParams safety;
   std::string record;           ///< SQLite file to record the session into; empty: no record
   RecorderOptions recorder;     ///< how to record (overwrite, batch length, thresholds)
 };
