@@ -1,6 +1,6 @@
 // Collision benchmark: the dental explorer against a real lower molar, ours against FCL 0.7.
 //
-// The query (what the haptic step asks every cycle, DESIGN.md §4 step 1): every pair of a tool
+// The query (what the haptic step asks every cycle, docs/design.md §4 step 1): every pair of a tool
 // sphere and the tooth closer than a margin (0.1 mm, about one sub-step of tool motion), with the
 // gap/normal/point of each pair. Timed per query, including moving the tool to the new pose.
 //

@@ -1,4 +1,4 @@
-// QP solve time by row count on contact-like problems, cold and warm (issue 3 item 9; target:
+// QP solve time by row count on contact-like problems, cold and warm (docs/performance.md; target:
 // median <= 3 us at up to 20 rows).
 //
 // Run: build/bench/qp_bench --benchmark_counters_tabular=true

@@ -5,7 +5,7 @@
 // - TightTreeOnly: the tree from a prebuilt level set (what the builder itself costs).
 // - OctreeDepth4: the paper's mode, level set at the octree's resolution -> depth-4 octree.
 // - CacheHit: loading the stored tight tree and its display mesh from the on-disk cache. Target
-//   <= 0.1 s ("a cache hit loads in milliseconds", DESIGN.md §3).
+//   <= 0.1 s ("a cache hit loads in milliseconds", docs/design.md §3).
 // - BoundaryCube: the paper's §4.2.2 block (100 x 100 x 20 mm) with a hidden 60 x 60 mm square
 //   lesion 3 mm deep, tight mode at tolerance 0.1 mm and max radius 10 mm: level sets, CSG, the
 //   healthy and the caries trees. Shows that a big flat-faced object stays within time and memory.

@@ -1,12 +1,12 @@
-// The haptic step on the scenes that matter (issue 3 item 9, issue 4): per-step time along
+// The haptic step on the scenes that matter (docs/performance.md): per-step time along
 // deterministic scripted trajectories in `oral-cavity` — free motion, sliding over the occlusal
 // enamel of 46, the tip in 46's central fossa with the shank resting on a neighbour — and on
 // `insertion-blocks` during insertion with the additional contact of paper Fig. 14. The same three
-// oral trajectories run on `real-arch` (the scanned teeth, issue #12), made the same way from its
+// oral trajectories run on `real-arch` (the scanned teeth), made the same way from its
 // lesion #1 on 46; without the shipped scans those benchmarks are skipped with a message.
 // Targets: median <= 50 us, p99 <= 100 us, p99.9 <= 250 us on one core.
 //
-// The real arch also runs the three trajectories of issue #11 over its tooth 36 (scan tooth_19, beside
+// The real arch also runs three hard trajectories over its tooth 36 (scan tooth_19, beside
 // 35 and 37): scenes/trajectories/real-{raster,sweep,wedge}-36.csv, made in the scan's coordinates
 // by scripts/trajectories/make_real_trajectories.py (a raster at 20 mm/s with the haptic tip 2 mm
 // below the occlusal surface, sweeps at 100 mm/s across the fissures, the shank wedged between 36 and
@@ -26,7 +26,7 @@
 // least kChatterMotion): a tool that alternates between two poses at half the servo rate, which the
 // hand feels as a buzz; `force_jump_p99`, N, the 99th percentile of the change of the rendered force
 // from one step to the next.
-// BM_StepExtremeParameters (issue #14 item 10) presses a tool of extreme but valid parameters
+// BM_StepExtremeParameters presses a tool of extreme but valid parameters
 // through a block of almost no stiffness: the steps the work budget bounds.
 
 #include <benchmark/benchmark.h>

@@ -1,4 +1,4 @@
-# Every dependency is a Debian bookworm package installed by scripts/setup (DESIGN.md §7).
+# Every dependency is a Debian bookworm package installed by scripts/setup (docs/design.md §7).
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(assimp REQUIRED)
 find_package(yaml-cpp REQUIRED)

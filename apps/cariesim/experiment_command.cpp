@@ -1,4 +1,4 @@
-// `cariesim experiment friction|boundary|insertion|oral|all --out DIR` (DESIGN.md §6).
+// `cariesim experiment friction|boundary|insertion|oral|all --out DIR` (docs/design.md §6).
 #include <cstdio>
 
 #include "cariesim/experiment/experiments.hpp"

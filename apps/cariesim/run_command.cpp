@@ -1,4 +1,4 @@
-// `cariesim run` (and `cariesim` with no subcommand), DESIGN.md §5-6: the simulator window on a
+// `cariesim run` (and `cariesim` with no subcommand), docs/design.md §5-6: the simulator window on a
 // scene with a device, the servo loop on its own thread, optionally a session record; for automation
 // a screenshot after some seconds of servo time. docs/viewer.md describes the window.
 #include <cstdint>

@@ -1,5 +1,5 @@
 // `cariesim servo [--scene S] [--device SPEC] [--rate HZ] [--duration S] [--record FILE]`: the real-time
-// servo loop without a window (DESIGN.md §5). It drives the engine from any device (null,
+// servo loop without a window (docs/design.md §5). It drives the engine from any device (null,
 // scripted:FILE, replay:FILE, udp:PORT: the UDP bridge of docs/device-bridge.md), prints a status line
 // per second and, at the end, the loop's timing (step time and jitter percentiles, overruns), the
 // device's counters and what was recorded. The device, the loop and the record come from one Session

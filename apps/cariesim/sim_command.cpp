@@ -1,4 +1,4 @@
-// `cariesim sim --scene S --trajectory T.csv --out O.csv [--rate HZ]` (DESIGN.md §6): headless run of
+// `cariesim sim --scene S --trajectory T.csv --out O.csv [--rate HZ]` (docs/design.md §6): headless run of
 // the haptic step along a trajectory, one CSV row per servo cycle, streamed to the file as the run
 // goes (constant memory; runs of more than kMaxSimSteps steps are refused up front).
 #include <cstdio>

@@ -1,5 +1,5 @@
 #pragma once
-/// The live force and torque plot's data (DESIGN.md §5): a ring of the snapshots the viewer saw over
+/// The live force and torque plot's data (docs/design.md §5): a ring of the snapshots the viewer saw over
 /// the last seconds, resampled on a uniform time grid for ImGui's PlotLines.
 
 #include <cstddef>

@@ -1,5 +1,5 @@
 #pragma once
-/// The mouse device (DESIGN.md §5): the UI thread turns drags and the wheel into a target pose
+/// The mouse device (docs/design.md §5): the UI thread turns drags and the wheel into a target pose
 /// (MouseControl) and hands it to the servo thread through a lock-free triple buffer (MouseDevice).
 /// The servo thread follows the target at a bounded speed, so a fast drag does not become a jump of
 /// centimetres in one servo cycle. A mouse renders no force (DeviceInfo::renders_force is false): the

@@ -1,5 +1,5 @@
 #pragma once
-/// What the viewer draws of a model and a servo snapshot (DESIGN.md §5): teeth, gingiva and tongue
+/// What the viewer draws of a model and a servo snapshot (docs/design.md §5): teeth, gingiva and tongue
 /// shaded in tissue colours (soft tissue dented where the tool presses it), the graphic tool solid,
 /// the haptic tool (and a replay's recorded tool) as translucent ghosts, and the overlays: sphere
 /// trees by level, contacts, the virtual tunnel, the force arrow. Render thread only.

@@ -1,5 +1,5 @@
 #pragma once
-/// Soft tissue visibly dents where the tool presses it (DESIGN.md §5): the viewer moves the display
+/// Soft tissue visibly dents where the tool presses it (docs/design.md §5): the viewer moves the display
 /// vertices of gingiva and tongue near each soft-tissue contact inward by the contact's penetration,
 /// with a smooth falloff around it. Computed on the render thread from the servo snapshot's contact
 /// reports; the collision model is not touched.

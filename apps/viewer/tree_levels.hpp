@@ -1,5 +1,5 @@
 #pragma once
-/// Sphere trees by level for the overlay (DESIGN.md §5): the nodes a tree shows at a chosen level.
+/// Sphere trees by level for the overlay (docs/design.md §5): the nodes a tree shows at a chosen level.
 
 #include <cstdint>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-/// The interactive simulator (`cariesim run`, DESIGN.md §5): a GLFW window with OpenGL 3.3 core and
+/// The interactive simulator (`cariesim run`, docs/design.md §5): a GLFW window with OpenGL 3.3 core and
 /// Dear ImGui, the servo loop on its own thread, a device (the mouse by default), optionally a
 /// session record. docs/viewer.md describes what the user sees and the controls.
 

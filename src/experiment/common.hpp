@@ -39,11 +39,12 @@ void write_csv(const std::filesystem::path& file, const std::vector<std::string>
 void write_text(const std::filesystem::path& file, std::string_view text);
 
 /// Deepest overlap (mm, 0 when none) of the graphic tool with any rigid object over a run: the
-/// engine promises at most the rigid tolerance (0.01 mm) after every step (issue #3 acceptance).
+/// engine promises at most the rigid tolerance (0.01 mm) after every step (docs/step.md).
 double max_rigid_penetration(const Model& model, const std::vector<SimSample>& samples);
 
 /// Largest change of the rendered force (N) between two consecutive steps of a run, leaving out the
-/// steps out of free space (a first touch may start at once); issue #10 asks for at most 1 N per 1 ms.
+/// steps out of free space (a first touch may start at once); the engine promises at most 1 N per 1 ms
+/// (docs/step.md).
 double max_force_step(const std::vector<SimSample>& samples);
 
 /// What every experiment reports over all its runs (summary.json): the deepest overlap with rigid

@@ -607,7 +607,7 @@ void validate_into(TriangleMesh& mesh, const std::string& what, MeshReport& repo
   }
 
   // A surface that crosses itself has no clear inside: the signed distance, and with it the tree,
-  // pokes out where the sheets cross (2.2 mm on the issue #14 example). A closed solid is refused
+  // pokes out where the sheets cross (2.2 mm on a crossed-sheet example). A closed solid is refused
   // (cariesim does not repair it: which sheet is right is a modelling decision); elsewhere it is a
   // warning.
   if (options.check_self_intersections) {

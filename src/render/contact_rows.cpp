@@ -1,4 +1,4 @@
-// Contact rows: the non-penetration constraint of paper eq. 1, linearised (DESIGN.md §4 step 2).
+// Contact rows: the non-penetration constraint of paper eq. 1, linearised (docs/design.md §4 step 2).
 //
 // Each pair (tool leaf t, object leaf o) is linearised at the rows' configuration: with lever
 // a = c_t - p_g and normal n (measure_pair), a small motion (dp, dθ) changes the gap by
@@ -121,9 +121,9 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
         // pairs the patch nearest the tool sideways describes the surface best. Between two tool
         // leaves, though, the one whose pair bore load at the last solve (carried) keeps the
         // direction's vote: two tip leaves about as deep took turns at being the deepest, and with
-        // them the patch elected and the solution (issue #11: a five-step cycle of 0.01 mm on the
-        // oral fissure). Within one leaf the vote stays with the nearest patch (the Fig. 12 hook
-        // needs it).
+        // them the patch elected and the solution (a five-step cycle of 0.01 mm on the oral
+        // fissure; docs/performance.md). Within one leaf the vote stays with the nearest patch (the Fig. 12
+        // hook needs it).
         const PairRef& elector = pairs.refs[group->pairs[similar]];
         const bool replace = elector.tool_leaf != p.tool_leaf
                                  ? p.carried && !elector.carried
@@ -148,7 +148,7 @@ int build_contact_rows(const Model& m, const Params& params, const PairSet& pair
   // push with the tissue's stiffness (a tool sunk in soft caries that meets a firmer wall is pushed
   // back by the wall, not thrown up through the material above it). A deeper one's stiffness fades
   // out over the next kCompliantDepthSlack (compliant_depth_fade): an on/off rule let the solution
-  // flip across it, and 12 % of the oral fissure's steps turned back (issue #11). Directions not yet
+  // flip across it, and 12 % of the oral fissure's steps turned back. Directions not yet
   // penetrated stay as constraints. Pairs measured sphere against sphere (interior fillers, or a tool
   // beside every leaf's patch) only count when no surface patch lies over the tool: they catch a tool
   // sunk deeper than the patches.

@@ -1,4 +1,4 @@
-// Friction on caries in the sliding state (paper §3.2, Figs. 10-11; DESIGN.md §4 step 4).
+// Friction on caries in the sliding state (paper §3.2, Figs. 10-11; docs/design.md §4 step 4).
 //
 // A loaded contact region on frictional tissue sticks: its tool point is held at an anchor in the
 // tangent plane by two equality rows t_j·(dp + dθ × a) = t_j·(anchor - x). Their multipliers are the

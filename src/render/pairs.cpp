@@ -1,4 +1,4 @@
-// Stage 1, collision (DESIGN.md §4 step 1): the sphere pairs the rows of one sub-step are made of,
+// Stage 1, collision (docs/design.md §4 step 1): the sphere pairs the rows of one sub-step are made of,
 // each measured once at the rows' configuration; and the re-check at a solution.
 //
 // collide() (collision module) finds the pairs and their sphere-against-sphere gaps; the geometry the

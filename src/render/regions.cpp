@@ -3,8 +3,9 @@
 // (one anchor per region). The parts of a cut object (its healthy tree and its caries trees, paper
 // §2.2) are one surface: where the tool touches two of them at a lesion's border, their pairs share
 // one region when both are compliant or both rigid, so that the tissue there is not a double spring
-// (issue #10). The region's object and material are those of the part under the tool: the one whose
-// tangent patch the founding tool leaf lies nearest sideways (the founder's when no patch covers it).
+// (docs/scene-format.md, "Lesions"). The region's object and material are those of the part under the tool:
+// the one whose tangent patch the founding tool leaf lies nearest sideways (the founder's when no patch
+// covers it).
 #include "render/regions.hpp"
 
 #include <algorithm>
@@ -52,8 +53,8 @@ bool bucket_sort(const RegionSet::GapKey* keys, int n, RegionSet::GapKey* sorted
 
 void build_regions(const Model& m, const ModelConstants& k, const PairSet& pairs, RegionSet& out) {
   // Pairs ordered from the deepest. The keys carry their gaps, so that the sort reads no geometry
-  // (issue #11: it was a tenth of a sweep's slowest steps); std::sort's moves follow its comparisons
-  // alone, so pairs of equal gap come out in the order an index sort would give. Many pairs of
+  // (it was a tenth of a sweep's slowest steps, docs/performance.md); std::sort's moves follow its
+  // comparisons alone, so pairs of equal gap come out in the order an index sort would give. Many pairs of
   // distinct gaps are sorted by buckets, into the same order.
   out.pairs = pairs.count;
   for (int i = 0; i < pairs.count; ++i) out.keys[i] = {pairs.geometry[i].gap, static_cast<int16_t>(i)};

@@ -1,4 +1,4 @@
-// The haptic step (DESIGN.md §4; the stages are described in stages.hpp): check the input, run the
+// The haptic step (docs/design.md §4; the stages are described in stages.hpp): check the input, run the
 // sliding or penetration state for one cycle (paper Fig. 4), and hand everything to the output stage.
 #include "cariesim/render/step.hpp"
 
@@ -118,8 +118,8 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   req.G.diagonal() << p.gains.k_trans, p.gains.k_trans, p.gains.k_trans, p.gains.k_rot, p.gains.k_rot,
       p.gains.k_rot;
   // The first bound follows the last cycle's motion (a resting or slowly sliding tool needs only a
-  // thin collision margin), or what the last cycle still wanted when it ended lagging (issue #11: a
-  // short cycle cut by its share of the work budget would otherwise restart from a small bound and
+  // thin collision margin), or what the last cycle still wanted when it ended lagging (a short
+  // cycle cut by its share of the work budget would otherwise restart from a small bound and
   // fall further behind); each further sub-step doubles it up to the trust region.
   req.trans_bound =
       std::clamp(std::max(2.0 * s.last_motion + 0.005, s.lag_motion), 0.01, m.settings.trust_step);
@@ -130,8 +130,8 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   int k = 0;
   // The work budget ends the sub-steps early: the first always runs (held where it is clear when the
   // budget runs out inside it); a further one starts only while what is left of the cycle's share of
-  // the budget (substep_budget: all of it at 1 kHz and below, issue #11) covers the costliest
-  // sub-step so far, so that the step's time stays bounded (issue #14 item 10). The share is at most
+  // the budget (substep_budget: all of it at 1 kHz and below) covers the costliest
+  // sub-step so far, so that the step's time stays bounded. The share is at most
   // the budget, so this also keeps the step within the budget itself.
   int64_t costliest = 0;
   WorkBudget& budget = s.collision.budget;
@@ -156,8 +156,8 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
     trace.flags |= kFlagLagging;
     // The friction cone (paper §3.2, Figs. 10-11) is decided once the motion ends in a sub-step
     // (solve_substep). A tool that lags behind the hand in every sub-step of every cycle would
-    // otherwise never let go of its anchors however hard the hand pulls (issue #11: pinned in 46's
-    // fossa for 3 s at up to 2.9 N): the cone is also decided on the cycle's last solve, at its
+    // otherwise never let go of its anchors however hard the hand pulls (docs/performance.md: pinned in
+    // 46's fossa for 3 s at up to 2.9 N): the cone is also decided on the cycle's last solve, at its
     // configuration g0, and the next cycle starts from what it decided.
     slip_anchors(p, s, g0, req.G, trace);
   }

@@ -1,4 +1,4 @@
-// One bounded optimisation of the graphic tool (paper eq. 1, DESIGN.md §4 steps 1-4), the stages of
+// One bounded optimisation of the graphic tool (paper eq. 1, docs/design.md §4 steps 1-4), the stages of
 // stages.hpp in order:
 //   1. collision: every sphere pair the tool can reach while moving by at most the sub-step's bound,
 //      measured at g0;

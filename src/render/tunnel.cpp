@@ -1,4 +1,4 @@
-// The penetration state (paper §3.3, Figs. 4-8; DESIGN.md §1 "Penetration state").
+// The penetration state (paper §3.3, Figs. 4-8; docs/design.md §1 "Penetration state").
 //
 // Entry (§3.1, eqs. 3-4): the tip touched carious tissue in the last cycle and the insertion force
 // along the tip axis, |F_p| = |(F_c·n)| with F_c = k_e (p_h^t - p_g^{t-1}), exceeds F_p*.

@@ -1,4 +1,4 @@
-// The model builder, build_model: SceneDesc -> Model (DESIGN.md §3). Per object: mesh or procedural
+// The model builder, build_model: SceneDesc -> Model (docs/design.md §3). Per object: mesh or procedural
 // shape in the world, lesions placed (and snapped) on it, level sets, CSG (healthy = object - lesions,
 // caries_i = object ∩ lesion_i; paper §2.2), one sphere tree per part (cached), leaf labels and
 // materials. Then the tool, gains, limits, and a check that the model is usable.

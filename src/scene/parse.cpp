@@ -31,7 +31,7 @@ constexpr double kMaxLength = 1000.0;       // mm, largest size of anything in a
 constexpr double kMaxCoordinate = 10000.0;  // mm, largest |coordinate| of a position
 constexpr double kMinVoxel = 0.005;         // mm, finest level-set voxel
 constexpr double kMinCuboidEdge = 0.01;     // mm, thinnest cuboid edge (make_cuboid takes 0.001)
-// Hz, the real-time servo loop's limit (servo/servo.hpp kMaxServoRate, DESIGN.md §5: up to 10 kHz);
+// Hz, the real-time servo loop's limit (servo/servo.hpp kMaxServoRate, docs/design.md §5: up to 10 kHz);
 // a scene asking for more passed `scene check` and then failed in `cariesim servo`.
 constexpr double kMaxSceneServoRate = 10000.0;
 // A mesh file named with this prefix lies in the shipped data folder (data_directory()).

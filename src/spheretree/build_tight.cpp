@@ -1,4 +1,4 @@
-// Tight sphere trees (DESIGN.md §3): inscribed spheres under the surface whose union follows the
+// Tight sphere trees (docs/design.md §3): inscribed spheres under the surface whose union follows the
 // surface to a tolerance, plus a few large filler spheres inside (the leaves: build_tree fits the
 // inner levels over them).
 //

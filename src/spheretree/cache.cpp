@@ -1,4 +1,4 @@
-// Tree cache files (DESIGN.md §3: "a cache hit loads in milliseconds").
+// Tree cache files (docs/design.md §3: "a cache hit loads in milliseconds").
 //
 // Layout, little-endian, no padding between fields:
 //   magic "CSTREE\r\n" (8 bytes), version (u32, kTreeCacheVersion), key (u64),

@@ -1,4 +1,4 @@
-// Surface deviation of a sphere tree (DESIGN.md §3, issue 2 item 9) and its structural check.
+// Surface deviation of a sphere tree (docs/design.md §3) and its structural check.
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>

@@ -339,7 +339,7 @@ bool parse_lesion_kind(std::string_view name, LesionShape::Kind& out) {
       return true;
     }
   }
-  // Issue 2 item 5 also calls the round lesion a "circle".
+  // "circle" is accepted for the round lesion too (docs/scene-format.md).
   if (name == "circle") {
     out = LesionShape::Kind::Disk;
     return true;

@@ -1,4 +1,4 @@
-// The servo step allocates nothing (STYLE.md "Model / State / step"): count every global operator new
+// The servo step allocates nothing (docs/style.md "Model / State / step"): count every global operator new
 // around many steps that exercise free motion, sliding with friction, and slips.
 #include <gtest/gtest.h>
 

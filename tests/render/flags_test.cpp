@@ -1,5 +1,5 @@
 // The step raises each of its flags in the situation it names, with a finite, bounded output and the
-// tool outside rigid tissue (DESIGN.md §4 "Degenerate input ... yields ... a flag"). Small hand-made
+// tool outside rigid tissue (docs/design.md §4 "Degenerate input ... yields ... a flag"). Small hand-made
 // models: slabs of spheres (render_support.hpp) for floors, walls and slots. The input flags
 // (non-finite, jump) and the force clamp are in step_test.cpp.
 #include <gtest/gtest.h>

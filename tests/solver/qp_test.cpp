@@ -659,7 +659,7 @@ TEST(QpLarge, KktHoldsWithManyRows) {
 
 // A tool (six spheres on a shaft) sliding along a bumpy fissure: a floor of object spheres between
 // two walls. The QP is linearised at the graphic pose each step, as the haptic step does
-// (DESIGN.md §4 steps 2-3), and its solution moves the graphic pose. Keys identify sphere pairs.
+// (docs/design.md §4 steps 2-3), and its solution moves the graphic pose. Keys identify sphere pairs.
 class SlidingTool {
  public:
   SlidingTool() {

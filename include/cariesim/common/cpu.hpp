@@ -1,5 +1,5 @@
 // Which CPUs a thread runs on, and at what real-time priority (Linux): the servo loop's two threads,
-// the UDP bridge's threads, and the tests and benchmarks that take a CPU away from them (issue #11).
+// the UDP bridge's threads, and the tests and benchmarks that take a CPU away from them.
 // Not for the servo cycle (allowed_cpus allocates).
 #pragma once
 

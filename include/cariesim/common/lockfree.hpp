@@ -1,5 +1,5 @@
 #pragma once
-/// Lock-free hand-offs between the servo thread and the rest (DESIGN.md §5): a triple buffer for
+/// Lock-free hand-offs between the servo thread and the rest (docs/design.md §5): a triple buffer for
 /// "latest value" (servo -> viewer snapshots and parameters, the UDP bridge's receiver -> servo) and a
 /// bounded single-producer single-consumer queue for messages (viewer -> servo parameter changes,
 /// servo -> recorder samples). Neither blocks nor allocates after construction (a TripleBuffer of a

@@ -1,5 +1,5 @@
 #pragma once
-/// The force safety layer every device goes through (DESIGN.md §5): ramp in at start, zero force when
+/// The force safety layer every device goes through (docs/design.md §5): ramp in at start, zero force when
 /// the input is at fault or the wrench not finite, a global force scale. Allocation-free; used on the
 /// servo thread.
 ///

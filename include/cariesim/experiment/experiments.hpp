@@ -1,5 +1,5 @@
 #pragma once
-/// The paper's experiments, each reproducible with one command (DESIGN.md §1, §6):
+/// The paper's experiments, each reproducible with one command (docs/design.md §1, §6):
 /// `cariesim experiment friction|boundary|insertion|oral|all --out DIR`. Each writes per-run CSVs and
 /// summary.json; figures are drawn by whoever runs them (`cariesim experiment` plugs in its
 /// matplotlib scripts through ExperimentOptions::draw_figures), so the core library stays free of

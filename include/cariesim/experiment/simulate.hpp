@@ -41,7 +41,7 @@ std::vector<SimSample> simulate(const Model& model, const Params& params, const 
 std::vector<SimSample> simulate(const Model& model, const Trajectory& trajectory, double rate_hz,
                                 const std::function<void(const SimSample&)>& on_step = {});
 
-/// Writes the rows of DESIGN.md §6: t, h_px..h_qz, g_px..g_qz, fx,fy,fz,tx,ty,tz, state, depth,
+/// Writes the rows of docs/design.md §6: t, h_px..h_qz, g_px..g_qz, fx,fy,fz,tx,ty,tz, state, depth,
 /// contacts, step_us. Throws cariesim::Error when the file cannot be written.
 void write_sim_csv(const std::filesystem::path& file, const std::vector<SimSample>& samples);
 

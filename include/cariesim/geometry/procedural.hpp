@@ -1,5 +1,5 @@
 #pragma once
-/// Procedural shapes, so the default scene needs no files (DESIGN.md §3). Every mesh is closed,
+/// Procedural shapes, so the default scene needs no files (docs/design.md §3). Every mesh is closed,
 /// manifold and wound outward. Object frames: x mesio-distal, y bucco-lingual, z occlusal (up).
 
 #include <cstdint>

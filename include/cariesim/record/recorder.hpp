@@ -1,5 +1,5 @@
 #pragma once
-/// Session records in SQLite (DESIGN.md §5): session metadata, the sample stream at the servo rate,
+/// Session records in SQLite (docs/design.md §5): session metadata, the sample stream at the servo rate,
 /// and events (state changes, overruns, soft-tissue contacts above a force threshold). WAL mode;
 /// samples are batched into transactions by a writer thread (never the servo thread), so a crash
 /// loses at most the last batch (<= 100 ms). Replay and CSV export read the same file. The schema,

@@ -1,5 +1,5 @@
 #pragma once
-/// The immutable Model of the haptic step (DESIGN.md §4, STYLE.md "Model / State / step"): object
+/// The immutable Model of the haptic step (docs/design.md §4, docs/style.md "Model / State / step"): object
 /// trees, lesions, the tool, numerical settings, capacities, and the authored Params (materials,
 /// gains, device limits). Built once from a scene (scene/model_builder.hpp) and never changed after; what
 /// may change while the loop runs is a Params block (render/params.hpp) the caller owns.

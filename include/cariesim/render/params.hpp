@@ -1,5 +1,5 @@
 #pragma once
-/// The step's Params: what may change while the servo loop runs (STYLE.md "Model / State / step"). The
+/// The step's Params: what may change while the servo loop runs (docs/style.md "Model / State / step"). The
 /// Model is immutable once built; the materials a slider or a study tunes, the coupling gains and the
 /// device's limits live in a Params block instead. The Model carries the authored one
 /// (Model::defaults); whoever runs the step owns the running copy (the servo thread in the simulator,

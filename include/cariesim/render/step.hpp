@@ -1,5 +1,5 @@
 #pragma once
-/// The haptic step: `step(model, params, state, input) -> output` (DESIGN.md §4; its stages are
+/// The haptic step: `step(model, params, state, input) -> output` (docs/design.md §4; its stages are
 /// described in src/render/stages.hpp and docs/step.md). A pure function of its inputs, so runs are
 /// deterministic and replayable. It allocates nothing, takes no lock and does no
 /// I/O. Bad input (non-finite pose, a jump of centimetres, a wedged tool, contact overflow) yields a
@@ -65,7 +65,7 @@ struct StepOutput {
   double soft_tissue_force = 0.0;  ///< N, largest normal force on gingiva/tongue (damage events)
   int tip_tissue = -1;             ///< Tissue of the tip's contact, -1 when the tip touches nothing
   double step_us = 0.0;            ///< µs, wall time of this step
-  int substeps = 0;                ///< sub-steps taken (trust region, DESIGN.md §4 step 3)
+  int substeps = 0;                ///< sub-steps taken (trust region, docs/design.md §4 step 3)
   int64_t work = 0;                ///< work units the step spent (StepSettings::work_budget)
   int slips = 0;                   ///< friction anchors that slipped this step (saw-tooth events)
   std::array<ContactReport, kMaxReportedContacts> contact_reports{};

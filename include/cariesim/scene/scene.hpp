@@ -1,5 +1,5 @@
 #pragma once
-/// Scenes: YAML files (yaml-cpp) and built-in scenes (DESIGN.md §6); scene/model_builder.hpp builds a
+/// Scenes: YAML files (yaml-cpp) and built-in scenes (docs/design.md §6); scene/model_builder.hpp builds a
 /// Model from them. The format is documented in docs/scene-format.md.
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 #pragma once
-/// The real-time servo loop (DESIGN.md §5): a thread stepping the haptic engine at a fixed rate with
+/// The real-time servo loop (docs/design.md §5): a thread stepping the haptic engine at a fixed rate with
 /// absolute deadlines, reading a device, filtering the wrench through ForceSafety and writing it back.
 /// It shares no lock with anyone: the latest state and the running Params go out through
 /// TripleBuffers, parameter changes come in through an SpscQueue, samples go to the recorder through
@@ -99,10 +99,10 @@ struct ServoOptions {
   int realtime_priority = 80;                ///< SCHED_FIFO priority asked for (1-99)
   /// µs before each deadline the thread stops sleeping and polls the clock (wait_until_ns), at most
   /// half the period; 0 sleeps the whole wait. Costs that share of a core; buys a punctual start
-  /// (issue #11: this machine woke a sleeping thread up to 0.5 ms late once a second or so).
+  /// (a sleeping thread may wake up to 0.5 ms late; docs/performance.md).
   double spin_us = kDefaultSpinUs;
   /// A second servo thread on another core that runs a cycle the first has not started a quarter
-  /// period after its deadline (issue #11). On a virtual machine the hypervisor takes a core away
+  /// period after its deadline. On a virtual machine the hypervisor takes a core away
   /// for 0.2-5 ms dozens of times a minute, whatever runs on it; a thread asleep or polling there
   /// then wakes too late, while the other core usually runs on. With it the two threads are pinned
   /// to two CPUs of the process's affinity (none when it has only one: the standby is then off, as

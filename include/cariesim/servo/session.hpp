@@ -1,5 +1,5 @@
 #pragma once
-/// One run of the simulator on a model (DESIGN.md §5): a device, the servo loop that drives the
+/// One run of the simulator on a model (docs/design.md §5): a device, the servo loop that drives the
 /// engine with it, and an optional recorder, built, started and stopped in one place for both
 /// `cariesim servo` and the viewer.
 ///

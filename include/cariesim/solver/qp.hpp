@@ -1,5 +1,5 @@
 #pragma once
-/// A small dense QP, the optimisation of the configuration-based method (paper eq. 1, DESIGN.md §4):
+/// A small dense QP, the optimisation of the configuration-based method (paper eq. 1, docs/design.md §4):
 ///
 ///   minimise   1/2 (x - x_t)^T G (x - x_t)          x in R^6, G symmetric positive definite
 ///   subject to a_i^T x + c_i lambda_i >= b_i        inequality rows (c_i >= 0: compliance, mm/N)

@@ -1,5 +1,5 @@
 #pragma once
-/// Sphere-tree construction in two modes (DESIGN.md §3) and the surface-deviation measure.
+/// Sphere-tree construction in two modes (docs/design.md §3) and the surface-deviation measure.
 ///
 /// octree (paper fidelity): the bounding cube split 2x2x2 per level; a cell is kept when it holds
 ///   surface or lies inside; its sphere is centred in the cell with radius (sqrt(3)/2) * edge.
@@ -111,7 +111,7 @@ void classify_leaves(SphereTree& tree, const LevelSet& outer, double touch_mm);
 void assign_materials(SphereTree& tree,
                       const std::function<uint16_t(const Vec3& center, float depth)>& material_of);
 
-/// How the seam between the parts of an object cut by lesions is closed (issue #10).
+/// How the seam between the parts of an object cut by lesions is closed (docs/scene-format.md, "Lesions").
 struct SeamParams {
   double band_mm = 0.75;  ///< mm each side of a lesion's border over which the uncut surface is covered again
   double overlap_mm = 0.1;  ///< mm, how far a seam leaf may reach across a cut into the neighbouring part
@@ -125,7 +125,7 @@ struct SeamParams {
   }
 };
 
-/// Seam leaves (issue #10). Cutting an object into healthy and caries parts (paper §2.2) gives both
+/// Seam leaves. Cutting an object into healthy and caries parts (paper §2.2) gives both
 /// parts a sharp edge where a lesion meets the surface, which inscribed spheres cannot fill: their
 /// union leaves a groove along every border. These leaves cover the uncut surface of `object` within
 /// `seam.band_mm` of every lesion's border (to `seam.tolerance_for(params.tolerance)`), tangent to it,
@@ -147,7 +147,7 @@ void add_seam_leaves(TreeLeaves& part, std::span<const LeafSphere> seam_leaves, 
                      std::span<const LesionShape> lesions, const TreeParams& params,
                      const SeamParams& seam = {});
 
-/// Distance between the union of leaves and a surface, both ways (DESIGN.md §3).
+/// Distance between the union of leaves and a surface, both ways (docs/design.md §3).
 struct Deviation {
   double p50 = 0.0;             ///< mm
   double p95 = 0.0;             ///< mm
@@ -164,7 +164,7 @@ struct Deviation {
 Deviation measure_deviation(const SphereTree& tree, const TriangleMesh& surface, const LevelSet& shape,
                             std::size_t samples = 100000, uint64_t seed = 1);
 
-/// Deviation across a lesion's border (issue #10): the union of the leaves of every part of one
+/// Deviation across a lesion's border: the union of the leaves of every part of one
 /// object (`parts`: healthy and caries trees) against the object's uncut `surface`, on the band where
 /// |border(x)| <= `half_width_mm` (mm; `border` is the lesion's signed distance, so the band runs
 /// `half_width_mm` each side of the border along the surface); poke-outs beyond `shape` (the object's

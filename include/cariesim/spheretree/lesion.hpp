@@ -1,5 +1,5 @@
 #pragma once
-/// Analytic lesion volumes placed on a tooth surface (DESIGN.md §3), turned into level sets.
+/// Analytic lesion volumes placed on a tooth surface (docs/design.md §3), turned into level sets.
 
 #include <string_view>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-/// Study files (docs/training.md): YAML descriptions of the paper's three studies (issue #13) —
+/// Study files (docs/training.md): YAML descriptions of the paper's three studies —
 /// `tuning` (Tables 1-2), `boundary-shapes` (§4.2.2, Fig. 13) and `diagnosis` (§5.3, Figs. 15-17) —
 /// parsed as strictly as scenes: an unknown key or a bad value is a cariesim::Error naming
 /// "file:line:column" and the field. Built-in studies are embedded like the built-in scenes.
