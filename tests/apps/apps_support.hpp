@@ -20,6 +20,9 @@ struct CommandResult {
 CommandResult run_cariesim(const std::string& args, const std::string& env = "",
                            const std::filesystem::path& working_dir = {});
 
+/// A closed cube of side `s` mm as ASCII STL (12 outward triangles).
+std::string cube_stl(double s);
+
 /// A fixture with a scratch folder per test (`dir_`, under the temporary directory, named from
 /// `prefix`, the test's name and the process id), made empty before the test and removed after it.
 class ScratchTest : public ::testing::Test {

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "cariesim/common/error.hpp"
+#include "support/raw_sql.hpp"
 
 namespace cariesim::io {
 namespace {
@@ -52,17 +53,7 @@ constexpr const char* kValidSql =
     "CREATE INDEX items_by_value ON items (value);"
     "INSERT INTO items (value) VALUES (1.5), (2.5);";
 
-// Runs SQL on `file` with SQLite alone (the crafted files are built without cariesim's opener).
-void run_sql(const fs::path& file, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
-  char* error = nullptr;
-  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error);
-  const std::string message = error != nullptr ? error : "";
-  sqlite3_free(error);
-  sqlite3_close(db);
-  ASSERT_EQ(rc, SQLITE_OK) << message;
-}
+using test::run_sql;
 
 std::string read_bytes(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);

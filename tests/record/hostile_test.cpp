@@ -14,6 +14,7 @@
 #include "cariesim/record/replay.hpp"
 #include "record/record_support.hpp"
 #include "support/deadline.hpp"
+#include "support/raw_sql.hpp"
 
 namespace cariesim {
 namespace {
@@ -24,16 +25,7 @@ using ::testing::HasSubstr;
 // s: far more than a refusal takes; on a reader that runs the view, the call never ends.
 constexpr double kDeadline = 10.0;
 
-void run_sql(const fs::path& file, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
-  char* error = nullptr;
-  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error);
-  const std::string message = error != nullptr ? error : "";
-  sqlite3_free(error);
-  sqlite3_close(db);
-  ASSERT_EQ(rc, SQLITE_OK) << message;
-}
+using test::run_sql;
 
 // The generator: a real recording whose samples table is replaced by a view over an endless
 // recursive query with every sample column (ordering it by id sorts without end into temporary files).

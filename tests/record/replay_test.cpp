@@ -131,6 +131,9 @@ TEST(ReplayDevice, FromARecordedFile) {
   EXPECT_EQ(replay->size(), kCount);
   EXPECT_EQ(replay->session().scene, test::synthetic_session(kRate).scene);
   const ServoSample expected = test::synthetic_sample(42, kRate);
+  // The loader thread streams the file: wait until the samples around the time are in.
+  for (int wait = 0; !replay->ready(expected.t) && wait < 10000; ++wait)
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
   EXPECT_LT((device->read(expected.t).pose.p - expected.haptic.p).norm(), 1e-12);
   EXPECT_LT((replay->recorded_graphic(expected.t).p - expected.graphic.p).norm(), 1e-12);
 

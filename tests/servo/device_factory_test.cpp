@@ -130,6 +130,8 @@ TEST(DeviceFactory, ReplayReachesTheRecordModule) {
   ASSERT_NE(replay, nullptr);
   EXPECT_EQ(replay->size(), 101u);
   once->start();
+  for (int wait = 0; !replay->ready(0.5) && wait < 10000; ++wait)  // the loader streams the file
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
   const DeviceState mid = once->read(0.5);
   EXPECT_TRUE(mid.valid);
   EXPECT_NEAR(mid.pose.p.x(), 5.0, 1e-9);

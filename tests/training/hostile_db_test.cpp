@@ -16,6 +16,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/report.hpp"
 #include "support/deadline.hpp"
+#include "support/raw_sql.hpp"
 #include "training/study_db_support.hpp"
 #include "training/training_support.hpp"
 
@@ -29,16 +30,7 @@ using ::testing::Not;
 // s: far more than a refusal takes; a reader that runs the crafted SQL never ends.
 constexpr double kDeadline = 10.0;
 
-void run_sql(const fs::path& file, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
-  char* error = nullptr;
-  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error);
-  const std::string message = error != nullptr ? error : "";
-  sqlite3_free(error);
-  sqlite3_close(db);
-  ASSERT_EQ(rc, SQLITE_OK) << message;
-}
+using cariesim::test::run_sql;
 
 std::string read_bytes(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
