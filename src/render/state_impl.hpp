@@ -59,4 +59,16 @@ struct StateImpl {
   QpSolver solver;
 };
 
+/// The render module's access to a State's private part: the step (step.cpp) and the render tests.
+/// Nothing outside render reaches it; the public State (cariesim/render/step.hpp) names no accessor.
+struct StateAccess {
+  static StateImpl& of(State& state) { return *state.impl_; }
+  static const StateImpl& of(const State& state) { return *state.impl_; }
+};
+
+/// The private part of `state`.
+inline StateImpl& state_impl(State& state) { return StateAccess::of(state); }
+/// The private part of `state`, read only.
+inline const StateImpl& state_impl(const State& state) { return StateAccess::of(state); }
+
 }  // namespace cariesim

@@ -203,7 +203,7 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   assert(state.built_for(m) && "state built for another model");
   assert(p.materials.size() == m.defaults.materials.size() && "params made for another model");
   if (!state.built_for(m) || p.materials.size() != m.defaults.materials.size()) return refused_output();
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   StepTrace trace;
   s.collision.budget = WorkBudget{std::max<int64_t>(m.settings.work_budget, 0), 0};
 

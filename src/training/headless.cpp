@@ -17,7 +17,7 @@
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/servo/session.hpp"
-#include "cariesim/training/scores.hpp"
+#include "training/scores.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {

@@ -9,7 +9,7 @@
 #include <tuple>
 
 #include "cariesim/training/report.hpp"
-#include "cariesim/training/stats.hpp"
+#include "training/stats.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {

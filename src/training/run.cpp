@@ -30,7 +30,7 @@
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/training/course.hpp"
-#include "cariesim/training/scores.hpp"
+#include "training/scores.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {

@@ -1,7 +1,7 @@
 // The scores of a trial (docs/training.md, "scores"): answers against the hidden truth, and the motion
 // scores read from the trial's session recording.
 
-#include "cariesim/training/scores.hpp"
+#include "training/scores.hpp"
 
 #include <fmt/format.h>
 

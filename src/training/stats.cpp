@@ -1,4 +1,4 @@
-#include "cariesim/training/stats.hpp"
+#include "training/stats.hpp"
 
 #include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <iterator>
 #include <map>
 #include <set>
 #include <sstream>
@@ -27,7 +28,7 @@ const std::map<std::string, std::set<std::string>>& allowed() {
   static const std::map<std::string, std::set<std::string>> table = [] {
     std::map<std::string, std::set<std::string>> t;
     t["common"] = {};
-    t["io"] = {"common"};        // files, documents, databases and processes from elsewhere
+    t["io"] = {"common"};            // files, documents, databases and processes from elsewhere
     t["device"] = {"common", "io"};  // a leaf: math, io and its own types only
     t["geometry"] = {"common", "io"};
     t["spheretree"] = {"common", "io", "geometry"};
@@ -271,6 +272,41 @@ TEST(IncludeGraph, NoFileIncludesAnotherModulesPrivateHeader) {
   }
   EXPECT_TRUE(violations.empty()) << describe(violations);
   EXPECT_GT(files, 100);  // the scan saw the tree
+}
+
+TEST(IncludeGraph, EveryPublicHeaderServesOutsideItsModule) {
+  // A public header (include/cariesim/<module>/) is there for another module, the apps, the
+  // benchmarks or the examples; one that only its own module and its own tests include is private
+  // and lives in src/<module>/ (docs/architecture.md, "Public surface").
+  const fs::path root = CARIESIM_SOURCE_DIR;
+  std::map<std::string, std::string> users;  // "cariesim/<module>/x.hpp" -> a file outside <module>
+  for (const auto& entry : fs::recursive_directory_iterator(root / "include/cariesim")) {
+    if (entry.is_regular_file() && is_source(entry.path()))
+      users[fs::relative(entry.path(), root / "include").generic_string()];
+  }
+  ASSERT_GT(users.size(), 20u);  // the scan saw the headers
+  for (const char* top : {"src", "include/cariesim", "bench", "apps", "examples", "tests"}) {
+    for (const auto& entry : fs::recursive_directory_iterator(root / top)) {
+      if (!entry.is_regular_file() || !is_source(entry.path())) continue;
+      const fs::path relative = fs::relative(entry.path(), root);
+      // The module a file speaks for: src/<m>, tests/<m>, include/cariesim/<m>; bench/, apps/ and
+      // examples/ for none.
+      std::string owner = file_module(relative);
+      if (relative.begin()->string() == "tests") owner = std::next(relative.begin())->string();
+      if (owner == "apps") owner.clear();
+      std::ifstream in(entry.path(), std::ios::binary);
+      std::string line;
+      while (std::getline(in, line)) {
+        const std::string path = included_path(line);
+        const auto it = users.find(path);
+        if (it != users.end() && it->second.empty() && included_module(path) != owner)
+          it->second = relative.generic_string();
+      }
+    }
+  }
+  for (const auto& [header, user] : users)
+    EXPECT_FALSE(user.empty()) << "include/" << header << " is included only by its own module and its "
+                               << "own tests: move it to src/ (docs/architecture.md)";
 }
 
 }  // namespace

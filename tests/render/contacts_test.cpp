@@ -51,7 +51,7 @@ uint32_t node_at(const Model& m, int object, const Vec3& center) {
 TEST(MeasurePair, RigidLeafIsSphereAgainstSphere) {
   const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  const ModelConstants& k = state.impl().constants;
+  const ModelConstants& k = state_impl(state).constants;
   const PairRef under{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
   // The tip 0.1 mm sideways and 0.03 mm above the plane.
   const Pose g = probe_at(Vec3(0.1, 0.0, kTip + 0.03));
@@ -77,7 +77,7 @@ TEST(MeasurePair, RigidLeafIsSphereAgainstSphere) {
 TEST(MeasurePair, CompliantLeafIsMeasuredAgainstItsTangentPlane) {
   const Model m = slab_model(test::soft(0.5), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  const ModelConstants& k = state.impl().constants;
+  const ModelConstants& k = state_impl(state).constants;
   const PairRef under{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
   const PairGeometry geo = measure_pair(m, k, probe_at(Vec3(0.1, 0.0, kTip - 0.02)), under);
   EXPECT_NEAR(geo.gap, -0.02, 1e-6);  // the plane's depth, not the sphere's (-0.0175)
@@ -104,7 +104,7 @@ TEST(MeasurePair, CariesWallLeafIsMarkedAndLeftOut) {
       {test::object("caries", walls, ObjectKind::Soft, 0), test::object("healthy", walls, ObjectKind::Soft)},
       {caries});
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g = probe_at(Vec3(0, 0, kTip - 0.1));
   const PairRef in_lesion{node_at(m, 0, Vec3(0, 0, -kSlabR)), 0, 0, false};
   const PairRef in_healthy{node_at(m, 1, Vec3(0, 0, -kSlabR)), 0, 1, false};
@@ -124,7 +124,7 @@ TEST(MeasurePair, CariesWallLeafIsMarkedAndLeftOut) {
 TEST(CollectPairs, MeasuresEachPairOnceAtTheRowsConfiguration) {
   const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
   test::collect(m, s, g, 0.05);
   ASSERT_GT(s.pairs.count, 0);
@@ -148,7 +148,7 @@ TEST(CollectPairs, ReportsOverflow) {
   Model m = slab_model(test::enamel(), ObjectKind::Rigid);
   m.capacities.contacts = 4;
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   set_leaf_margins(m, 0.5, 0.0, s.collision);
   EXPECT_FALSE(
       collect_pairs(m, s.constants, s.collision, probe_at(Vec3(0, 0, kTip + 0.01)), kAllObjects, s.pairs));
@@ -173,7 +173,7 @@ TEST(BuildRegions, OnePerObjectAndToolPointFoundedByTheDeepest) {
       {test::object("floor", leaves, ObjectKind::Soft), test::object("wall", wall, ObjectKind::Soft)},
       {test::soft(1.0)});
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   // The tip 0.1 mm into the floor; the shank (1 mm radius from z = 3.5) 0.2 mm into the wall.
   const Pose g = probe_at(Vec3(1.7, 0.0, kTip - 0.1));
   test::collect(m, s, g, 0.01);
@@ -221,7 +221,7 @@ TEST(BuildRegions, OnePerObjectAndToolPointFoundedByTheDeepest) {
 TEST(BuildRegions, OrdersThePairsAsStdSortWould) {
   const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   test::collect(m, s, probe_at(Vec3(0.0, 0.0, kTip - 0.1)), 0.01);
   ASSERT_GT(s.pairs.count, 0);
   const PairRef ref = s.pairs.refs[0];
@@ -272,7 +272,7 @@ TEST(CollectPairs, GroupsThePairsAsStdSortWould) {
                    test::object("c", leaves, ObjectKind::Soft)},
                   {test::soft(1.0)});
   State state(m, probe_at(Vec3(0, 0, 5)));
-  CollisionScratch& c = state.impl().collision;
+  CollisionScratch& c = state_impl(state).collision;
   const auto tool_leaves = static_cast<int>(m.tool.tree.leaf_count());
   const int objects = static_cast<int>(m.objects.size());
   ASSERT_GT(tool_leaves, 4);
@@ -330,7 +330,7 @@ TEST(CollectPairs, GroupsThePairsAsStdSortWould) {
 TEST(ContactRows, RigidRowsAreTheLinearisedGap) {
   const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g{Vec3(0.05, 0.0, kTip + 0.005), Quat(Eigen::AngleAxisd(0.2, Vec3::UnitX()))};
   test::collect(m, s, g, 0.05);
   build_regions(m, s.constants, s.pairs, s.regions);
@@ -380,7 +380,7 @@ TEST(ContactRows, CompliantRegionGivesOneRowPerDirection) {
   const double k = 0.8;  // N/mm
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   test::collect(m, s, probe_at(Vec3(0.03, 0.02, kTip - 0.3)), 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   ASSERT_GT(s.pairs.count, 20) << "many spheres overlap";
@@ -447,7 +447,7 @@ std::set<int> pairs_of(const std::map<int, double>& rows) {
 TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
   const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   ASSERT_EQ(kMaxRowsPerGroup, 3);
   // All of the tip's leaf, on patches.
   const std::vector<GivenPair> given = {
@@ -482,7 +482,7 @@ TEST(ContactRows, ACarriedPairKeepsItsDirectionsRow) {
 TEST(ContactRows, ACarriedPairKeepsItsDirectionsVote) {
   const Model m = slab_model(test::soft(1.0), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   ASSERT_GE(s.constants.tool_leaves, 2u);
   const auto elected = [&](bool carried) {
     return pairs_of(contact_rows_of(m, s, {{0, 1, 0.06, Vec3(0, 0, 1)},  // tool leaf 1, deeper, up
@@ -508,9 +508,9 @@ TEST(ContactRows, ADirectionPastTheDepthSlackFadesOut) {
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
   // All of the tip's leaf, on patches, three directions.
-  std::map<int, double> compliance = contact_rows_of(m, state.impl(),
-                                                     {{0, 0, 0.20, Vec3(0.0, -0.6, 0.8)},    // past the fade
-                                                      {1, 0, 0.125, Vec3(0.6, 0.0, 0.8)},    // half way
+  std::map<int, double> compliance = contact_rows_of(m, state_impl(state),
+                                                     {{0, 0, 0.20, Vec3(0.0, -0.6, 0.8)},   // past the fade
+                                                      {1, 0, 0.125, Vec3(0.6, 0.0, 0.8)},   // half way
                                                       {2, 0, 0.05, Vec3(0.0, 0.0, 1.0)}});  // the shallowest
   EXPECT_EQ(pairs_of(compliance), (std::set<int>{1, 2}));
   EXPECT_NEAR(compliance[1], 2.0 / k, 1e-9);
@@ -523,7 +523,7 @@ TEST(ContactRows, ADirectionPastTheDepthSlackFadesOut) {
 TEST(ContactRows, ACarriedRigidPairOfACappedLeafKeepsItsRow) {
   const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const SphereTree& tree = m.objects[0].tree;
   const Vec3 tilted = Vec3(0.1, 0.0, 0.995).normalized();  // 6 degrees from the deeper pair's normal
   ASSERT_GT(tilted.z(), kRigidNormalCos);
@@ -563,7 +563,7 @@ TEST(ContactRows, ACarriedRigidPairOfACappedLeafKeepsItsRow) {
 TEST(Solve, TheStepCarriesLoadedCompliantPairsAndForgetsThemInFreeSpace) {
   const Model m = slab_model(test::soft(0.5), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   for (int i = 0; i < 50; ++i) step(m, state, HapticInput{probe_at(Vec3(0, 0, kTip - 0.5)), 0.001});
   ASSERT_GT(s.carried.count, 0);
   for (int c = 0; c < s.carried.count; ++c) {
@@ -588,7 +588,7 @@ TEST(Solve, SphereOnACompliantPlane) {
   const double k = 0.5, k_t = 1.0, depth = 0.2, push = 0.6;  // N/mm, N/mm, mm, mm
   const Model m = slab_model(test::soft(k), ObjectKind::Soft);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   test::collect(m, s, probe_at(Vec3(0, 0, kTip - depth)), 0.01);
   build_regions(m, s.constants, s.pairs, s.regions);
   Mat6 G = Mat6::Identity() * k_t;

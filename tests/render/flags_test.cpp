@@ -74,7 +74,7 @@ TEST(StepFlags, ContactOverflow) {
   StepOutput out;
   for (int i = 0; i < 30; ++i) out = step(m, s, HapticInput{probe_at(Vec3(0, 0, kTip - 0.3)), 0.001});
   EXPECT_TRUE(out.flags & kFlagContactOverflow);
-  EXPECT_TRUE(s.impl().pairs.overflow);
+  EXPECT_TRUE(state_impl(s).pairs.overflow);
   EXPECT_GT(out.contacts, 0);
   EXPECT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance);
   expect_sane(m, out);
@@ -129,8 +129,8 @@ TEST(StepFlags, QpRowsFull) {
     out = step(m, p, s, HapticInput{lying(0.0, -0.5), 0.001});
     if (out.flags & kFlagQpRowsFull) {
       flagged = true;
-      EXPECT_EQ(s.impl().rows.problem.row_count, kQpMaxRows);
-      EXPECT_TRUE(s.impl().rows.full);
+      EXPECT_EQ(state_impl(s).rows.problem.row_count, kQpMaxRows);
+      EXPECT_TRUE(state_impl(s).rows.full);
     }
     expect_sane(m, out);
     ASSERT_GE(test::rigid_clearance(m, out.graphic), -m.settings.rigid_tolerance) << i;
@@ -156,13 +156,13 @@ TEST(StepFlags, QpActiveSetFull) {
       // The last solve is the full one unless the work budget cut the step's sub-steps short (the
       // whole probe in two soft slabs is close to it, StepSettings::work_budget).
       if (!(out.flags & kFlagWorkBudget)) {
-        EXPECT_EQ(s.impl().solution.qp.active, kQpMaxActive) << i;
+        EXPECT_EQ(state_impl(s).solution.qp.active, kQpMaxActive) << i;
       }
     }
     expect_sane(m, out);
   }
   EXPECT_TRUE(flagged);
-  EXPECT_GT(s.impl().regions.count, kQpMaxActive);
+  EXPECT_GT(state_impl(s).regions.count, kQpMaxActive);
 }
 
 // A solver allowed a single dual step cannot settle the probe landing flat on a rigid slab (the
@@ -173,7 +173,7 @@ TEST(StepFlags, QpIterationLimit) {
       test::model({test::object("slab", floor_leaves(-2, 42, -2, 2), ObjectKind::Rigid)}, {test::enamel()});
   const Params p = flat(m);
   State s(m, lying(0.0, 0.05));
-  s.impl().solver = QpSolver(1);
+  state_impl(s).solver = QpSolver(1);
   bool flagged = false;
   StepOutput out;
   for (int i = 0; i < 20; ++i) {

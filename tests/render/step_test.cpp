@@ -75,11 +75,11 @@ TEST(Step, CollectedPairsAreThoseOfTheLastSubstep) {
   const int pairs = s.collected_pairs();
   EXPECT_GT(pairs, 0);
   EXPECT_LE(pairs, 512);
-  EXPECT_EQ(pairs, s.impl().pairs.count);
+  EXPECT_EQ(pairs, state_impl(s).pairs.count);
   // Lifted off (the sub-steps that leave the slab collect what they meet), then in free space.
   EXPECT_EQ(run(m, s, probe_at(Vec3(0, 0, 8)), 40).state, InteractionState::Free);
   const int last = s.collected_pairs();
-  EXPECT_EQ(last, s.impl().pairs.count);
+  EXPECT_EQ(last, state_impl(s).pairs.count);
   const StepOutput free = run(m, s, probe_at(Vec3(0, 0, 9)));
   EXPECT_EQ(free.state, InteractionState::Free);
   EXPECT_EQ(free.substeps, 0);

@@ -65,7 +65,7 @@ SubstepRequest request(const Model& m, const Vec6& target, double trans, double 
 TEST(Substep, BoundedByItsTrustRegion) {
   const Model m = rigid_slab();
   State state(m, probe_at(Vec3(0, 0, 10)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g0 = probe_at(Vec3(0, 0, 10));
   Vec6 far;
   far << 3.0, -4.0, 0.0, 0.0, 0.0, 0.0;  // 5 mm
@@ -95,7 +95,7 @@ TEST(Substep, BoundedByItsTrustRegion) {
 TEST(Substep, StopsOnARigidSurface) {
   const Model m = rigid_slab();
   State state(m, probe_at(Vec3(0, 0, 10)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g0 = probe_at(Vec3(0.1, 0.05, kTip + 0.05));
   Vec6 down = Vec6::Zero();
   down.z() = -1.0;
@@ -126,7 +126,7 @@ TEST(Substep, ReCheckBringsInThePairsTheRowsMissed) {
       {test::enamel()});
   m.capacities.contacts = 1;
   State state(m, probe_at(Vec3(0, 0, 10)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.001));
   Vec6 target = Vec6::Zero();
   target.x() = 1.0;
@@ -257,7 +257,7 @@ TEST(Substep, BacktracksWhatTheReCheckCannotFix) {
   m.capacities.contacts = 1;
   m.settings.max_rechecks = -1;  // one pass: no second solve with the re-check's pairs
   State state(m, probe_at(Vec3(0, 0, 10)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g0 = probe_at(Vec3(0.0, 0.0, kTip + 0.001));
   Vec6 target = Vec6::Zero();
   target.x() = 1.0;

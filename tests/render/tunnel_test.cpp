@@ -138,7 +138,7 @@ TEST(TunnelLimits, DepthGrowsToTheResistance) {
   const double resistance = insertion_resistance(mat, 0.3);
   ASSERT_NEAR(resistance, 10.0 * mat.crush_length, 1e-12);
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   s.tunnel = straight_down(0.3);
   s.graphic = probe_at(Vec3(0, 0, -0.3));
   s.interaction = InteractionState::Inserting;
@@ -177,7 +177,7 @@ TEST(TunnelLimits, ExtractionBeyondFeStar) {
   const Params& p = m.defaults;
   const Material& mat = p.materials[0];
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   s.tunnel = straight_down(1.0);
   s.graphic = probe_at(Vec3(0, 0, -1.0));
   s.interaction = InteractionState::Inserting;
@@ -199,7 +199,7 @@ TEST(Penetration, EntersOnlyAboveFpStarOnCaries) {
   const Model m = lesion_model();
   const Params& p = m.defaults;
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   const Pose g = probe_at(Vec3(0, 0, kTip - 0.1));
   s.graphic = g;
   s.anchors[0].active = true;
@@ -225,7 +225,7 @@ TEST(Penetration, EntersOnlyAboveFpStarOnCaries) {
 TEST(TunnelSpheres, FiveAroundTheTip) {
   const Model m = lesion_model();
   State state(m, probe_at(Vec3(0, 0, 5)));
-  StateImpl& s = state.impl();
+  StateImpl& s = state_impl(state);
   s.tunnel = straight_down(0.4);
   s.tunnel.depth0 = 0.1;
   s.interaction = InteractionState::Inserting;

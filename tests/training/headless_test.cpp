@@ -11,8 +11,8 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/record/recorder.hpp"
-#include "cariesim/training/scores.hpp"
 #include "support/fifo.hpp"
+#include "training/scores.hpp"
 #include "training/study_schema.hpp"
 #include "training/training_support.hpp"
 

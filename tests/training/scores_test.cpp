@@ -1,6 +1,6 @@
 // Scores (src/training/scores.cpp): marks judged against lesion volumes, the answers' scores and the
 // motion scores of a recording, on hand-made inputs whose scores are counted by hand.
-#include "cariesim/training/scores.hpp"
+#include "training/scores.hpp"
 
 #include <gtest/gtest.h>
 

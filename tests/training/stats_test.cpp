@@ -1,5 +1,5 @@
 // The report's statistics against values computed by hand (docs/reports.md, "Formulas").
-#include "cariesim/training/stats.hpp"
+#include "training/stats.hpp"
 
 #include <gtest/gtest.h>
 

@@ -95,10 +95,8 @@ class State {
   /// rows added). A step that ran no sub-step (the tool in free space) leaves the count of the last.
   [[nodiscard]] int collected_pairs() const;
 
-  StateImpl& impl() { return *impl_; }
-  [[nodiscard]] const StateImpl& impl() const { return *impl_; }
-
  private:
+  friend struct StateAccess;  // the render module's own door to impl_ (src/render/state_impl.hpp)
   std::unique_ptr<StateImpl> impl_;
 };
 

@@ -175,7 +175,7 @@ class StudyRun {
   [[nodiscard]] const TrialAnswers& answers() const { return answers_; }
 
   /// Ends the current trial: loads the recording (record/recorder.hpp load_recording; an empty
-  /// path: no recording, the motion scores are then absent), computes the scores (scores.hpp),
+  /// path: no recording, the motion scores are then absent), computes the scores (docs/training.md),
   /// and writes answers, scores, the recording's path and ended_at in one transaction. A diagnosis
   /// trial judges the marks against `model`'s lesions (the model built from setup().scene(), whose
   /// lesions are snapped onto the teeth); without one the scene is built here (a tree-cache hit
