@@ -144,9 +144,10 @@ TEST(DeviceFactory, ReplayReachesTheRecordModule) {
   // The file streams: wait (as replay_test does) until the loader has the second pass in.
   auto* looping = dynamic_cast<ReplayDevice*>(looped.get());
   ASSERT_NE(looping, nullptr);
-  for (int wait = 0; !looping->ready(1.01 + 0.5) && wait < 10000; ++wait)
+  // The playback rule's period: 1 s, first to last sample (common/trajectory.hpp).
+  for (int wait = 0; !looping->ready(1.0 + 0.5) && wait < 10000; ++wait)
     std::this_thread::sleep_for(std::chrono::microseconds(100));
-  const DeviceState again = looped->read(1.01 + 0.5);
+  const DeviceState again = looped->read(1.0 + 0.5);
   EXPECT_TRUE(again.valid);
   EXPECT_NEAR(again.pose.p.x(), 5.0, 1e-6);
   once.reset();
