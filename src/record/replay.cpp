@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/io/sqlite.hpp"
 #include "record/schema.hpp"
 
@@ -76,7 +77,7 @@ struct ReplayDevice::Stream {
   std::atomic<bool> failed{false};
   std::string failure;  // written before `failed` is set
   std::atomic<bool> stop{false};
-  std::uint64_t cursor = 0;  // servo thread: the entry at or before the played time
+  std::uint64_t cursor = 0;         // servo thread: the entry at or before the played time
   PlaybackCursor<Loaded> playback;  // servo thread
 
   mutable std::mutex lookup_mutex;  // the look-up connection and its statements
@@ -376,5 +377,21 @@ std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bo
   return std::make_unique<ReplayDevice>(file, loop);
 }
 
+// `replay:FILE[:loop]`, errors naming the spec as the built-in backends' do.
+void register_replay_device() {
+  register_device_backend({"replay", "replay:FILE[:loop]",
+                           [](const std::string& spec, std::optional<std::string_view> argument,
+                              const DeviceOptions& /*options*/) -> std::unique_ptr<Device> {
+                             std::string_view rest = argument.value_or(std::string_view{});
+                             const bool loop = strip_loop_option(rest);
+                             if (rest.empty())
+                               bad_device_spec(spec, "missing recording file (expected replay:FILE[:loop])");
+                             try {
+                               return make_replay_device(std::string(rest), loop);
+                             } catch (const Error& e) {
+                               bad_device_spec(spec, e.what());
+                             }
+                           }});
+}
 
 }  // namespace cariesim

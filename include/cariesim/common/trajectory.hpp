@@ -4,7 +4,7 @@
 /// rotation with the quaternion normalised (blend), played from a hint (PlaybackCursor) under one loop
 /// rule (playback_offset). The scripted device (device/devices.hpp) plays a Trajectory, the replay
 /// device (record/replay.hpp) a recording streamed through its read-ahead ring, both with this cursor;
-/// `cariesim sim` and the experiments read trajectories from CSV files (scene/trajectory.hpp). The
+/// `cariesim sim` and the experiments read trajectories from CSV files (device/trajectory_csv.hpp). The
 /// rule is described in docs/records.md ("Playback").
 
 #include <algorithm>

@@ -125,4 +125,10 @@ class ReplayDevice : public Device {
 /// be read or holds no samples.
 std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bool loop = false);
 
+/// Registers the `replay:FILE[:loop]` backend with the device factory (device/factory.hpp); call it at
+/// start (the runtime's Session and the viewer do), any number of times. The replay device stays in
+/// the record module: it reads the record's schema (record/schema.hpp), which the device module below
+/// may not include.
+void register_replay_device();
+
 }  // namespace cariesim
