@@ -31,9 +31,9 @@
 #include "cariesim/common/cpu.hpp"
 #include "cariesim/device/devices.hpp"
 #include "cariesim/device/safety.hpp"
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/scene/trajectory.hpp"
 #include "cariesim/servo/servo.hpp"
 
 namespace {

@@ -39,12 +39,12 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/experiment/posture.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace {
 

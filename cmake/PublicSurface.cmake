@@ -7,14 +7,14 @@
 set(CARIESIM_PUBLIC_HEADERS
   cariesim/common/error.hpp
   cariesim/scene/scene.hpp
-  cariesim/scene/trajectory.hpp
+  cariesim/device/trajectory_csv.hpp
   cariesim/scene/model_builder.hpp
   cariesim/render/model.hpp
   cariesim/render/step.hpp
   cariesim/render/params.hpp
   cariesim/servo/session.hpp
   cariesim/servo/servo.hpp
-  cariesim/servo/device_factory.hpp
+  cariesim/device/factory.hpp
   cariesim/device/device.hpp
   cariesim/device/devices.hpp
   cariesim/device/udp_device.hpp

@@ -21,9 +21,9 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/device/udp_protocol.hpp"
 #include "cariesim/render/step.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace {
 

@@ -17,8 +17,8 @@
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/scene/model_builder.hpp"
-#include "cariesim/servo/device_factory.hpp"
 #include "cariesim/training/course.hpp"
 #include "screenshot.hpp"
 #include "viewer_app.hpp"
@@ -75,6 +75,7 @@ ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
   (void)load_scene(options_.scene);
   if (!options_.record.empty() && !options_.overwrite && std::filesystem::exists(options_.record))
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
+  register_replay_device();
   if (options_.device != "mouse") (void)make_device(options_.device);
   settings_.show_lesions = options_.show_lesions;
 

@@ -1,13 +1,12 @@
-// Sampling a trajectory (common/trajectory.hpp): linear position, slerp rotation between samples.
+// Playing a trajectory (common/trajectory.hpp): the blend, the segment velocities, the loop rule.
 #include "cariesim/common/trajectory.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace cariesim {
 
-namespace {
-
-// Interpolates between two samples: linear position, slerp rotation.
+// Linear position, slerp rotation, normalised.
 Pose blend(const Pose& a, const Pose& b, double u) {
   Pose out;
   out.p = a.p + (b.p - a.p) * u;
@@ -15,7 +14,20 @@ Pose blend(const Pose& a, const Pose& b, double u) {
   return out;
 }
 
-}  // namespace
+// Finite differences over the segment: mm/s and the rotation vector per second.
+SegmentVelocity segment_velocity(const Pose& a, const Pose& b, double dt) {
+  SegmentVelocity v;
+  v.linear = (b.p - a.p) / dt;
+  v.angular = rotation_vector(b.q * a.q.conjugate()) / dt;
+  return v;
+}
+
+// The start for a time before it (or none), a period of `duration` when looping.
+double playback_offset(double elapsed, double duration, bool loop) {
+  const double e = std::isfinite(elapsed) ? std::max(elapsed, 0.0) : 0.0;
+  if (!loop) return e;
+  return duration > 0.0 ? std::fmod(e, duration) : 0.0;
+}
 
 Pose Trajectory::sample(double time) const {
   // Clamped at both ends; inside, a binary search for the segment.
@@ -23,21 +35,6 @@ Pose Trajectory::sample(double time) const {
   if (time >= t.back()) return pose.back();
   const auto i = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin()) - 1;
   return blend(pose[i], pose[i + 1], (time - t[i]) / (t[i + 1] - t[i]));
-}
-
-Pose TrajectoryCursor::at(double time) {
-  const Trajectory& tr = *trajectory_;
-  // Clamped at both ends.
-  if (time <= tr.t.front()) {
-    segment_ = 0;
-    return tr.pose.front();
-  }
-  if (time >= tr.t.back()) return tr.pose.back();
-  // Walk forward from the last segment; restart the walk when time went backwards.
-  if (segment_ >= tr.t.size() - 1 || tr.t[segment_] > time) segment_ = 0;
-  while (tr.t[segment_ + 1] < time) ++segment_;
-  const double u = (time - tr.t[segment_]) / (tr.t[segment_ + 1] - tr.t[segment_]);
-  return blend(tr.pose[segment_], tr.pose[segment_ + 1], u);
 }
 
 }  // namespace cariesim

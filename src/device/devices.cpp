@@ -62,15 +62,13 @@ DeviceState ScriptedDevice::read(double now) {
     origin_ = now;
     previous_now_ = now;
   }
-  // Trajectory time on the servo clock; looping wraps it, otherwise the end holds.
+  // Trajectory time on the servo clock under the playback rule (common/trajectory.hpp): looping
+  // wraps it, otherwise the end holds.
   const double duration = trajectory_.end() - trajectory_.start();
-  double local = now - origin_;
-  if (loop_) {
-    local = duration > 0.0 ? std::fmod(std::max(local, 0.0), duration) : 0.0;
-  } else if (local > duration) {
-    finished_ = true;
-  }
-  s.pose = finished_ ? trajectory_.pose.back() : cursor_.at(trajectory_.start() + local);
+  const double elapsed = now - origin_;
+  if (!loop_ && elapsed > duration) finished_ = true;
+  s.pose = finished_ ? trajectory_.pose.back()
+                     : cursor_.at(trajectory_.start() + playback_offset(elapsed, duration, loop_));
   s.valid = !finished_;
 
   // Velocities: backward differences between consecutive readings.

@@ -1,9 +1,9 @@
 #pragma once
 // Trajectories for probing a lesion of the oral scene (used by the oral experiment and its tests); the
 // postures they probe in are public (cariesim/experiment/posture.hpp).
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/experiment/posture.hpp"
 #include "cariesim/render/model.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim::experiment {
 

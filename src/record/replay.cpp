@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/io/sqlite.hpp"
 #include "record/schema.hpp"
 
@@ -20,16 +21,6 @@ namespace cariesim {
 
 namespace {
 
-// Linear position, slerp rotation (the trajectory convention, scene/trajectory.hpp).
-Pose blend(const Pose& a, const Pose& b, double f) {
-  Pose out;
-  out.p = a.p + f * (b.p - a.p);
-  out.q = a.q.slerp(f, b.q);
-  return out;
-}
-
-// Beyond this many steps forward a binary search is cheaper than walking.
-constexpr std::size_t kMaxWalk = 16;
 // The loader's sleep when the read-ahead buffer is full.
 constexpr auto kLoaderIdle = std::chrono::milliseconds(1);
 
@@ -48,9 +39,19 @@ std::string sample_columns() {
 // the loader writes only slots below tail + capacity), and the look-up connection.
 struct ReplayDevice::Stream {
   struct Entry {
-    double play = 0.0;   // s of servo time at which it plays
-    bool first = false;  // the first sample of a loop: no blending from the one before
+    double play = 0.0;  // s of servo time at which it plays (a loop's seam: the next loop's first
+                        // entry plays at its last entry's time)
     ServoSample sample;
+  };
+  // The loaded entries [tail, head) as a PlaybackCursor source (common/trajectory.hpp).
+  struct Loaded {
+    const Stream* stream;
+    std::uint64_t from, to;
+    [[nodiscard]] std::uint64_t first() const { return from; }
+    [[nodiscard]] std::uint64_t end() const { return to; }
+    [[nodiscard]] const Entry& entry(std::uint64_t i) const { return stream->ring[i % stream->ring.size()]; }
+    [[nodiscard]] double time(std::uint64_t i) const { return entry(i).play; }
+    [[nodiscard]] const Pose& pose(std::uint64_t i) const { return entry(i).sample.haptic; }
   };
 
   ~Stream() {
@@ -76,7 +77,8 @@ struct ReplayDevice::Stream {
   std::atomic<bool> failed{false};
   std::string failure;  // written before `failed` is set
   std::atomic<bool> stop{false};
-  std::uint64_t cursor = 0;  // servo thread: the entry at or before the played time
+  std::uint64_t cursor = 0;         // servo thread: the entry at or before the played time
+  PlaybackCursor<Loaded> playback;  // servo thread
 
   mutable std::mutex lookup_mutex;  // the look-up connection and its statements
   std::unique_ptr<io::Database> lookup_db;
@@ -115,7 +117,6 @@ void ReplayDevice::Stream::run() {
         last = s.t;
         Entry& e = ring[w % capacity];
         e.play = s.t - first_t + static_cast<double>(cycle) * period;
-        e.first = pushed_this_cycle == 0;
         e.sample = s;
         ++pushed_this_cycle;
         head.store(++w, std::memory_order_release);
@@ -126,8 +127,9 @@ void ReplayDevice::Stream::run() {
       if (rc != SQLITE_DONE) loader_db->fail("cannot read the samples");
       loader_db->check_input_unchanged();
       if (rows > 0) continue;
-      // The end: again from the start when looping (a cycle that played nothing ends it too).
-      if (!loop || pushed_this_cycle == 0) break;
+      // The end: again from the start when looping (a cycle that played nothing, or a recording of
+      // no duration, whose one pose is held, ends it too).
+      if (!loop || pushed_this_cycle == 0 || !(period > 0.0)) break;
       ++cycle;
       pushed_this_cycle = 0;
       after = min_id - 1;
@@ -180,16 +182,9 @@ ReplayDevice::ReplayDevice(const std::filesystem::path& file, bool loop)
   first_t_ = *first;
   last_t_ = *last;
   rows_ = static_cast<std::size_t>(s.max_id - s.min_id + 1);
-  double interval = 1.0 / 1000.0;
-  if (rows_ >= 2 && duration() > 0.0) {
-    interval = duration() / static_cast<double>(rows_ - 1);
-  } else if (std::isfinite(info_.rate_hz) && info_.rate_hz > 0.0) {
-    interval = 1.0 / info_.rate_hz;
-  }
-  period_ = duration() + interval;
   s.first_t = first_t_;
   s.last_t = last_t_;
-  s.period = period_;
+  s.period = duration();  // the playback rule's period (common/trajectory.hpp)
   s.loop = loop_;
 
   // The look-up connection, then the loader; its first batch.
@@ -209,7 +204,7 @@ ReplayDevice::ReplayDevice(const std::filesystem::path& file, bool loop)
 ReplayDevice::~ReplayDevice() = default;
 
 // Keep the samples whose time is finite and increasing (a recording's are; anything else could not be
-// played in order), then fix the loop period: the recording plus one sample interval.
+// played in order).
 ReplayDevice::ReplayDevice(Recording recording, bool loop, std::string description)
     : description_(std::move(description)),
       loop_(loop),
@@ -226,13 +221,6 @@ ReplayDevice::ReplayDevice(Recording recording, bool loop, std::string descripti
   first_t_ = t_.front();
   last_t_ = t_.back();
   rows_ = t_.size();
-  double interval = 1.0 / 1000.0;
-  if (t_.size() >= 2) {
-    interval = duration() / static_cast<double>(t_.size() - 1);
-  } else if (std::isfinite(info_.rate_hz) && info_.rate_hz > 0.0) {
-    interval = 1.0 / info_.rate_hz;
-  }
-  period_ = duration() + interval;
 }
 
 DeviceInfo ReplayDevice::info() const {
@@ -244,108 +232,80 @@ DeviceInfo ReplayDevice::info() const {
   return out;
 }
 
+// The playback rule (common/trajectory.hpp): the start for a time before it, a period of the
+// recording's duration when looping.
 double ReplayDevice::recording_time(double now) const {
-  const double elapsed = std::isfinite(now) ? std::max(now, 0.0) : 0.0;
-  if (!loop_) return first_t_ + elapsed;
-  return first_t_ + std::fmod(elapsed, period_);
+  return first_t_ + playback_offset(now, duration(), loop_);
 }
 
-bool ReplayDevice::finished(double now) const { return !loop_ && recording_time(now) > last_t_; }
-
-// Walk forward from the hint while time increases (constant time per servo cycle), else bisect.
-std::size_t ReplayDevice::segment(double time, std::size_t hint) const {
-  const std::size_t last = t_.size() - 1;
-  if (!(time > t_.front())) return 0;
-  if (time >= t_[last]) return last;
-  if (hint < last && t_[hint] <= time) {
-    for (std::size_t steps = 0; steps < kMaxWalk && hint < last; ++steps) {
-      if (time < t_[hint + 1]) return hint;
-      ++hint;
-    }
-  }
-  return static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), time) - t_.begin()) - 1;
+bool ReplayDevice::finished(double now) const {
+  return !loop_ && playback_offset(now, duration(), false) > duration();
 }
 
-double ReplayDevice::blend_factor(std::size_t i, double time) const {
-  if (i + 1 >= t_.size()) return 0.0;
-  return std::clamp((time - t_[i]) / (t_[i + 1] - t_[i]), 0.0, 1.0);
-}
-
-// The haptic pose between the two samples around the played time, the segment's velocities, the
-// buttons of the sample at or before it.
+// The haptic pose between the two samples around the played time (the playback cursor), the
+// segment's velocities, the buttons of the sample at or before it.
 DeviceState ReplayDevice::read(double now) {
   if (stream_) return read_stream(now);
-  const double time = recording_time(now);
-  cursor_ = segment(time, cursor_);
-  const std::size_t i = cursor_;
-  const ServoSample& a = samples_[i];
+  const Samples haptic{this, &ServoSample::haptic};
+  const Pose pose = cursor_.at(haptic, recording_time(now));
+  const SegmentVelocity velocity = cursor_.velocity(haptic);
   DeviceState state;
-  state.buttons = a.buttons;
+  state.buttons = samples_[cursor_.at_or_before()].buttons;
   state.stamp = now;
   state.sequence = ++sequence_;
   state.valid = !finished(now);
-  if (i + 1 < t_.size()) {
-    const ServoSample& b = samples_[i + 1];
-    const double dt = t_[i + 1] - t_[i];
-    state.pose = blend(a.haptic, b.haptic, blend_factor(i, time));
-    state.velocity = (b.haptic.p - a.haptic.p) / dt;
-    state.angular_velocity = rotation_vector(b.haptic.q * a.haptic.q.conjugate()) / dt;
-  } else {
-    state.pose = a.haptic;
-  }
+  state.pose = pose;
+  state.velocity = velocity.linear;
+  state.angular_velocity = velocity.angular;
   return state;
 }
 
 void ReplayDevice::write(const Vec3& /*force*/, const Vec3& /*torque*/) {}
 
+// Both poses by the playback cursor (a fresh one: any time, any order), the other fields from the
+// sample at or before the time.
 ServoSample ReplayDevice::recorded(double now) const {
   if (stream_) return recorded_stream(now);
   const double time = recording_time(now);
-  const std::size_t i = segment(time, 0);
-  ServoSample out = samples_[i];
-  if (i + 1 < t_.size()) {
-    const double f = blend_factor(i, time);
-    out.haptic = blend(samples_[i].haptic, samples_[i + 1].haptic, f);
-    out.graphic = blend(samples_[i].graphic, samples_[i + 1].graphic, f);
-    out.t = std::min(time, t_.back());
-  }
+  PlaybackCursor<Samples> haptic_cursor;
+  PlaybackCursor<Samples> graphic_cursor;
+  const Pose haptic = haptic_cursor.at(Samples{this, &ServoSample::haptic}, time);
+  const Pose graphic = graphic_cursor.at(Samples{this, &ServoSample::graphic}, time);
+  ServoSample out = samples_[haptic_cursor.at_or_before()];
+  out.haptic = haptic;
+  out.graphic = graphic;
+  out.t = std::min(time, t_.back());
   return out;
 }
 
 Pose ReplayDevice::recorded_graphic(double now) const { return recorded(now).graphic; }
 
-// The streamed read: move the cursor to the last loaded entry at or before the played time (servo
-// time only goes forward), releasing the ones behind it to the loader; blend towards the next entry
-// unless it starts a new loop; hold the pose when the loader has not caught up (an underrun).
+// The streamed read: the playback cursor over the loaded entries from the servo's own (the entries
+// carry their play time, loops unrolled); the entries before the one at or before the played time go
+// back to the loader (servo time only goes forward); the last loaded pose is held when the loader has
+// not caught up (an underrun).
 DeviceState ReplayDevice::read_stream(double now) {
   Stream& s = *stream_;
-  const double elapsed = std::isfinite(now) ? std::max(now, 0.0) : 0.0;
-  const std::uint64_t head = s.head.load(std::memory_order_acquire);
-  const std::uint64_t capacity = s.ring.size();
-  std::uint64_t c = s.cursor;
-  while (c + 1 < head && s.ring[(c + 1) % capacity].play <= elapsed) ++c;
+  const double elapsed = playback_offset(now, duration(), false);
+  const Stream::Loaded loaded{&s, s.cursor, s.head.load(std::memory_order_acquire)};
+  const Pose pose = s.playback.at(loaded, elapsed);
+  const SegmentVelocity velocity = s.playback.velocity(loaded);
+  const std::uint64_t c = s.playback.at_or_before();
   if (c != s.cursor) {
     s.cursor = c;
     s.tail.store(c, std::memory_order_release);
   }
-  const Stream::Entry& a = s.ring[c % capacity];
+  const Stream::Entry& a = loaded.entry(c);
   DeviceState state;
   state.buttons = a.sample.buttons;
   state.stamp = now;
   state.sequence = ++sequence_;
   state.valid = !finished(now);
-  state.pose = a.sample.haptic;
-  if (c + 1 < head) {
-    const Stream::Entry& b = s.ring[(c + 1) % capacity];
-    if (!b.first && b.play > a.play) {
-      const double dt = b.play - a.play;
-      state.pose = blend(a.sample.haptic, b.sample.haptic, std::clamp((elapsed - a.play) / dt, 0.0, 1.0));
-      state.velocity = (b.sample.haptic.p - a.sample.haptic.p) / dt;
-      state.angular_velocity = rotation_vector(b.sample.haptic.q * a.sample.haptic.q.conjugate()) / dt;
-    }
-  } else if (!s.ended.load(std::memory_order_acquire) && state.valid && elapsed > a.play) {
+  state.pose = pose;
+  state.velocity = velocity.linear;
+  state.angular_velocity = velocity.angular;
+  if (c + 1 >= loaded.end() && !s.ended.load(std::memory_order_acquire) && state.valid && elapsed > a.play)
     s.underruns.fetch_add(1, std::memory_order_relaxed);
-  }
   return state;
 }
 
@@ -405,7 +365,7 @@ bool ReplayDevice::ready(double now) const {
   const Stream& s = *stream_;
   if (s.ended.load(std::memory_order_acquire)) return true;
   const std::uint64_t head = s.head.load(std::memory_order_acquire);
-  const double elapsed = std::isfinite(now) ? std::max(now, 0.0) : 0.0;
+  const double elapsed = playback_offset(now, duration(), false);
   return head > 0 && s.ring[(head - 1) % s.ring.size()].play > elapsed;
 }
 
@@ -415,6 +375,23 @@ std::uint64_t ReplayDevice::underruns() const {
 
 std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bool loop) {
   return std::make_unique<ReplayDevice>(file, loop);
+}
+
+// `replay:FILE[:loop]`, errors naming the spec as the built-in backends' do.
+void register_replay_device() {
+  register_device_backend({"replay", "replay:FILE[:loop]",
+                           [](const std::string& spec, std::optional<std::string_view> argument,
+                              const DeviceOptions& /*options*/) -> std::unique_ptr<Device> {
+                             std::string_view rest = argument.value_or(std::string_view{});
+                             const bool loop = strip_loop_option(rest);
+                             if (rest.empty())
+                               bad_device_spec(spec, "missing recording file (expected replay:FILE[:loop])");
+                             try {
+                               return make_replay_device(std::string(rest), loop);
+                             } catch (const Error& e) {
+                               bad_device_spec(spec, e.what());
+                             }
+                           }});
 }
 
 }  // namespace cariesim

@@ -7,16 +7,18 @@
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/io/json.hpp"
 #include "cariesim/record/replay.hpp"
-#include "cariesim/servo/device_factory.hpp"
 
 namespace cariesim {
 
 namespace {
 
-// The device a spec names, placed at the model's home and reporting the model's limits.
+// The device a spec names (the record module's replay backend registered beside the built-in ones),
+// placed at the model's home and reporting the model's limits.
 std::unique_ptr<Device> device_from_spec(const Model& model, const SessionOptions& options) {
+  register_replay_device();
   DeviceOptions device;
   device.home = model.tool_home;
   device.limits = model.defaults.limits;

@@ -146,6 +146,19 @@ TEST(OneHome, TheRecordReachesTheStepOnlyThroughItsCodes) {
   EXPECT_TRUE(found.empty()) << lines(found);
 }
 
+// Playback is written once: every pose blend of the library is common/trajectory.cpp's (the scripted
+// and the replay devices share its cursor), and the device factory is the device module's.
+TEST(OneHome, PosesAreBlendedOnceAndDevicesMadeInDevice) {
+  const std::vector<std::string> blends =
+      occurrences(std::regex(R"(\.slerp\()"), {"include/cariesim", "src"}, {"src/common/trajectory.cpp"});
+  EXPECT_TRUE(blends.empty()) << lines(blends);
+  const std::vector<std::string> factories = occurrences(
+      std::regex(R"(std::unique_ptr<Device>\s+make_device\()"), {"include/cariesim", "src", "apps"},
+      {"include/cariesim/device/factory.hpp", "src/device/factory.cpp"});
+  EXPECT_TRUE(factories.empty()) << lines(factories);
+  EXPECT_TRUE(fs::is_regular_file(fs::path(CARIESIM_SOURCE_DIR) / "src/device/factory.cpp"));
+}
+
 TEST(OneHome, TheCheckersFindWhatTheyLookFor) {
   // The patterns themselves, on the forms they must catch (a wrong pattern would pass vacuously).
   const std::regex& written_out = penetration_written_out();

@@ -1,5 +1,5 @@
-// The hardware-free devices (null, scripted). The device factory's specs are tested with the
-// runtime (tests/servo/device_factory_test.cpp).
+// The hardware-free devices (null, scripted). The device factory's specs are tested in
+// factory_test.cpp.
 #include "cariesim/device/devices.hpp"
 
 #include <gtest/gtest.h>

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/experiment/simulate.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 namespace {

@@ -13,8 +13,8 @@
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/record/recorder.hpp"
-#include "cariesim/scene/trajectory.hpp"
 #include "record/record_support.hpp"
 #include "support/files.hpp"
 

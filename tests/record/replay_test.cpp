@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/devices.hpp"
 #include "record/record_support.hpp"
 #include "support/alloc_counter.hpp"
 
@@ -95,7 +96,7 @@ TEST(ReplayDevice, EndsOrLoops) {
   EXPECT_LT((after.pose.p - recording.samples.back().haptic.p).norm(), 1e-12) << "the last pose is held";
 
   ReplayDevice looping(recording, true);
-  const double period = end + 1.0 / kRate;  // the recording plus one sample interval
+  const double period = end;  // the playback rule's period: first to last sample
   for (const double now : {0.0105, 0.2}) {
     const DeviceState first = looping.read(now);
     const DeviceState again = looping.read(now + 2.0 * period);
@@ -180,7 +181,7 @@ TEST(ReplayDevice, StreamsAFileWithBoundedMemory) {
   EXPECT_EQ(device.recorded(middle.t).state, middle.state);
 }
 
-// A looping file starts again after one sample interval, as an in-memory recording does.
+// A looping file starts again at its last sample's time, as an in-memory recording does.
 TEST(ReplayDevice, AStreamedFileLoops) {
   test::ScratchDir dir("replay_stream_loop");
   const auto file = dir / "loop.db";
@@ -192,7 +193,7 @@ TEST(ReplayDevice, AStreamedFileLoops) {
     recorder.stop();
   }
   ReplayDevice looping(file, true);
-  const double period = test::synthetic_sample(kCount - 1, kRate).t + 1.0 / kRate;
+  const double period = test::synthetic_sample(kCount - 1, kRate).t;
   for (int cycle = 0; cycle < 3; ++cycle) {
     for (std::size_t i = 0; i < kCount; i += 11) {
       const double now = cycle * period + test::synthetic_sample(i, kRate).t;
@@ -202,6 +203,75 @@ TEST(ReplayDevice, AStreamedFileLoops) {
       EXPECT_TRUE(state.valid);
       ASSERT_LT((state.pose.p - test::synthetic_sample(i, kRate).haptic.p).norm(), 1e-9) << cycle << " " << i;
     }
+  }
+}
+
+// One playback for every device: the replay device plays a recording's haptic poses exactly as the
+// scripted device plays the same poses as a trajectory, looping included (the period is the
+// duration, first to last sample, not one sample interval more), in memory and from a file.
+TEST(ReplayDevice, PlaysAsTheScriptedDeviceDoes) {
+  test::ScratchDir dir("replay_as_scripted");
+  const auto file = dir / "loop.db";
+  const Recording recording = synthetic_recording();
+  Trajectory trajectory;
+  for (const ServoSample& s : recording.samples) trajectory.add(s.t, s.haptic);
+  {
+    Recorder recorder(file, recording.info);
+    for (const ServoSample& s : recording.samples) ASSERT_TRUE(recorder.queue().push(s));
+    recorder.start();
+    recorder.stop();
+  }
+  ScriptedDevice scripted(trajectory, true, "the recording's poses");
+  ReplayDevice memory(recording, true);
+  ReplayDevice streamed(file, true);
+  const double duration = trajectory.end() - trajectory.start();
+  scripted.start();
+  for (double now = 0.0; now < 2.5 * duration; now += 0.37 / kRate) {
+    const Pose expected = scripted.read(now).pose;
+    const Pose played = memory.read(now).pose;
+    EXPECT_EQ(played.p, expected.p) << now;
+    EXPECT_EQ(played.q.coeffs(), expected.q.coeffs()) << now;
+    for (int wait = 0; !streamed.ready(now) && wait < 10000; ++wait)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    const Pose from_file = streamed.read(now).pose;
+    ASSERT_LT((from_file.p - expected.p).norm(), 1e-9) << now;
+    ASSERT_LT(angle_between(from_file.q, expected.q), 1e-9) << now;
+  }
+  // Half a sample interval into the second loop: half-way between the first two samples (on main the
+  // replay held the last sample for one more interval).
+  const double now = duration + 0.5 / kRate;
+  const Pose half = blend(recording.samples[0].haptic, recording.samples[1].haptic, 0.5);
+  ReplayDevice again(recording, true);
+  EXPECT_LT((again.read(now).pose.p - half.p).norm(), 1e-9);
+  EXPECT_DOUBLE_EQ(again.recording_time(now), 0.5 / kRate);
+}
+
+// A recording made elsewhere may hold quaternions a little off unit length (within the input guard's
+// kUnitTolerance): the played pose is a unit quaternion between them, not their unnormalised slerp.
+TEST(ReplayDevice, BlendsToAUnitQuaternion) {
+  test::ScratchDir dir("replay_unit");
+  const auto file = dir / "long_quaternions.db";
+  Recording recording = synthetic_recording();
+  for (ServoSample& s : recording.samples) {
+    s.haptic.q.coeffs() *= 1.0008;
+    s.graphic.q.coeffs() *= 1.0008;
+  }
+  {
+    Recorder recorder(file, recording.info);
+    for (const ServoSample& s : recording.samples) ASSERT_TRUE(recorder.queue().push(s));
+    recorder.start();
+    recorder.stop();
+  }
+  ReplayDevice memory(recording);
+  ReplayDevice streamed(file);
+  for (std::size_t k : {10u, 123u, 250u}) {
+    const double now = recording.samples[k].t + 0.4 / kRate;
+    EXPECT_NEAR(memory.read(now).pose.q.norm(), 1.0, 1e-12) << k;
+    EXPECT_NEAR(memory.recorded_graphic(now).q.norm(), 1.0, 1e-12) << k;
+    for (int wait = 0; !streamed.ready(now) && wait < 10000; ++wait)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    EXPECT_NEAR(streamed.read(now).pose.q.norm(), 1.0, 1e-12) << k;
+    EXPECT_NEAR(streamed.recorded_graphic(now).q.norm(), 1.0, 1e-12) << k;
   }
 }
 

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 namespace {

@@ -8,10 +8,10 @@
 #include <functional>
 #include <thread>
 
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim::test {
 

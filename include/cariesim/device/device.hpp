@@ -6,7 +6,7 @@
 ///
 /// The device module is a leaf (docs/architecture.md): it knows math and its own types only. What
 /// the engine says goes in as plain codes (DeviceStatus); devices are made from spec strings one
-/// level up, by the runtime (servo/device_factory.hpp).
+/// level up, by the runtime (device/factory.hpp).
 
 #include <cstdint>
 #include <memory>

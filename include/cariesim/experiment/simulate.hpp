@@ -6,9 +6,9 @@
 #include <functional>
 #include <vector>
 
+#include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/io/csv.hpp"
 #include "cariesim/render/step.hpp"
-#include "cariesim/scene/trajectory.hpp"
 
 namespace cariesim {
 

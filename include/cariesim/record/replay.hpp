@@ -1,7 +1,8 @@
 #pragma once
 /// The replay device (`--device replay:FILE`): plays a recorded session back on the servo clock.
-/// read(now) returns the recorded haptic pose at servo time `now`, interpolated between samples
-/// (linear in position, slerp in rotation), so the engine re-runs the session; the recorded graphic
+/// read(now) returns the recorded haptic pose at servo time `now`, played as every trajectory is
+/// (PlaybackCursor, common/trajectory.hpp: linear in position, normalised slerp in rotation), so the
+/// engine re-runs the session; the recorded graphic
 /// pose (what the trainee saw) is there for the viewer to draw as a ghost tool:
 ///
 ///   auto device = make_replay_device(file);
@@ -9,9 +10,10 @@
 ///   ... each frame, with the servo snapshot's time t:
 ///   const Pose ghost = replay->recorded_graphic(snapshot.t);
 ///
-/// Servo time `now` plays recording time first_t + now (first_t: the first sample's t), wrapping
-/// around when looping; without looping the last pose is held and the reading turns invalid (so the
-/// force safety layer zeroes the force).
+/// Servo time `now` plays recording time first_t + playback_offset(now, duration, loop) (first_t: the
+/// first sample's t; the loop rule of common/trajectory.hpp: the period is the duration, first to last
+/// sample); without looping the last pose is held and the reading turns invalid (so the force safety
+/// layer zeroes the force).
 ///
 /// A file is streamed: a loader thread reads the samples in batches of kReplayBatch rows into a
 /// read-ahead buffer of kReplayReadAhead samples, ahead of the servo thread, which never waits, reads
@@ -28,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/common/trajectory.hpp"
 #include "cariesim/device/device.hpp"
 #include "cariesim/record/recorder.hpp"
 
@@ -89,10 +92,15 @@ class ReplayDevice : public Device {
   [[nodiscard]] std::uint64_t underruns() const;
 
  private:
-  // The sample index i with t_[i] <= time < t_[i + 1] (clamped), searched from `hint`.
-  [[nodiscard]] std::size_t segment(double time, std::size_t hint) const;
-  [[nodiscard]] double blend_factor(std::size_t i, double time) const;
-
+  // The in-memory samples as a PlaybackCursor source, of the haptic or the graphic pose.
+  struct Samples {
+    const ReplayDevice* device;
+    Pose ServoSample::*which;
+    [[nodiscard]] std::uint64_t first() const { return 0; }
+    [[nodiscard]] std::uint64_t end() const { return device->t_.size(); }
+    [[nodiscard]] double time(std::uint64_t i) const { return device->t_[i]; }
+    [[nodiscard]] const Pose& pose(std::uint64_t i) const { return device->samples_[i].*which; }
+  };
   struct Stream;
   // The streamed read (servo thread) and look-up (other threads).
   DeviceState read_stream(double now);
@@ -100,7 +108,6 @@ class ReplayDevice : public Device {
 
   std::string description_;
   bool loop_ = false;
-  double period_ = 0.0;   // s, one loop: duration + one sample interval
   double first_t_ = 0.0;  // s, the first and last played sample's t
   double last_t_ = 0.0;
   std::size_t rows_ = 0;
@@ -109,7 +116,7 @@ class ReplayDevice : public Device {
   std::vector<RecordedEvent> events_;
   std::vector<double> t_;             // in memory: s, strictly increasing
   std::vector<ServoSample> samples_;  // in memory: aligned with t_
-  std::size_t cursor_ = 0;            // servo thread's segment
+  PlaybackCursor<Samples> cursor_;    // in memory: the servo thread's
   uint64_t sequence_ = 0;
 };
 
@@ -117,5 +124,11 @@ class ReplayDevice : public Device {
 /// to it for the recorded graphic pose (the ghost tool). Throws cariesim::Error when the file cannot
 /// be read or holds no samples.
 std::unique_ptr<Device> make_replay_device(const std::filesystem::path& file, bool loop = false);
+
+/// Registers the `replay:FILE[:loop]` backend with the device factory (device/factory.hpp); call it at
+/// start (the runtime's Session and the viewer do), any number of times. The replay device stays in
+/// the record module: it reads the record's schema (record/schema.hpp), which the device module below
+/// may not include.
+void register_replay_device();
 
 }  // namespace cariesim

@@ -3,7 +3,7 @@
 /// engine with it, and an optional recorder, built, started and stopped in one place for both
 /// `cariesim servo` and the viewer.
 ///
-/// A Session makes the device from a spec (servo/device_factory.hpp) or takes one already made (the
+/// A Session makes the device from a spec (device/factory.hpp) or takes one already made (the
 /// viewer's mouse); fills the record's SessionInfo once (scene, scene hash, device spec, rate, the
 /// running Params as JSON, the start time from utc_now_iso8601); starts the recorder's writer before
 /// the loop and stops the loop (and with it the device) before the recorder; posts parameter changes
@@ -38,7 +38,7 @@ namespace cariesim {
 /// What a Session runs and how.
 struct SessionOptions {
   std::string scene;            ///< the scene name or file the model was built from (for the record)
-  std::string device = "null";  ///< device spec (device_factory.hpp); for a ready-made device, its name
+  std::string device = "null";  ///< device spec (device/factory.hpp); for a ready-made device, its name
   double rate_hz = 0.0;         ///< Hz, the servo rate; 0: the model's (Model::servo_rate)
   bool realtime = true;         ///< ask for SCHED_FIFO (the servo thread, the UDP bridge's threads)
   double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)

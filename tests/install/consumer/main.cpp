@@ -7,7 +7,7 @@
 #include <cariesim/render/step.hpp>
 #include <cariesim/scene/model_builder.hpp>
 #include <cariesim/scene/scene.hpp>
-#include <cariesim/servo/device_factory.hpp>
+#include <cariesim/device/factory.hpp>
 #include <cariesim/training/report.hpp>
 #include <cariesim/training/study.hpp>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "cariesim/scene/trajectory.hpp"
+#include "cariesim/device/trajectory_csv.hpp"
 
 #include <array>
 #include <charconv>

@@ -1,8 +1,10 @@
 #pragma once
 /// Haptic-tool trajectory files: CSV with the header `t,px,py,pz,qw,qx,qy,qz` (s, mm, unit
 /// quaternion w-x-y-z), as read by `cariesim sim`, the scripted device and the experiments. Poses
-/// are of the tool frame (origin at the tip sphere's centre). The Trajectory type itself, and its
-/// interpolation, is common/trajectory.hpp.
+/// are of the tool frame (origin at the tip sphere's centre). The Trajectory type itself, and how it
+/// is played, is common/trajectory.hpp. The files live in the device module, beside the input guard
+/// whose unit-quaternion rule they apply, so that the device factory (device/factory.hpp) reads the
+/// scripted device's path itself.
 
 #include <cstdint>
 #include <filesystem>

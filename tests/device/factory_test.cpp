@@ -1,19 +1,19 @@
-// The device factory (servo/device_factory.hpp): every spec kind, replay from the record module
-// included, and errors that name the spec.
-#include "cariesim/servo/device_factory.hpp"
+// The device factory (device/factory.hpp): every built-in spec kind, a backend registered from
+// above, and errors that name the spec. The record module's replay backend: tests/record.
+#include "cariesim/device/factory.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/devices.hpp"
 #include "cariesim/device/udp_device.hpp"
-#include "cariesim/record/recorder.hpp"
-#include "cariesim/record/replay.hpp"
 #include "support/fifo.hpp"
 
 namespace cariesim {
@@ -101,57 +101,43 @@ TEST(DeviceFactory, AScriptedFifoOrDeviceIsRefusedWithoutBlocking) {
   }
 }
 
-TEST(DeviceFactory, ReplayReachesTheRecordModule) {
-  // A 1 s recording at 100 Hz: the tool moves 10 mm along x.
-  const auto file = std::filesystem::temp_directory_path() /
-                    ("cariesim_factory_test_replay_" + std::to_string(::getpid()) + ".db");
-  std::filesystem::remove(file);
-  {
-    SessionInfo info;
-    info.scene = "friction-block";
-    info.device = "scripted:line.csv";
-    info.rate_hz = 100.0;
-    Recorder recorder(file, info);
-    recorder.start();
-    for (int i = 0; i <= 100; ++i) {
-      ServoSample s;
-      s.t = 0.01 * i;
-      s.haptic.p = Vec3(0.1 * i, 0, 1);
-      s.graphic.p = Vec3(0.1 * i, 0, 1.5);
-      ASSERT_TRUE(recorder.queue().push(s));
-    }
-    recorder.stop();
+// A module above registers its own backend (as the record module does "replay"): the factory hands
+// its specs to it, a second registration replaces the first, and an unknown spec lists the backends.
+TEST(DeviceFactory, ABackendRegisteredFromAbove) {
+  DeviceOptions options;
+  options.home.p = Vec3(1, 2, 3);
+  std::string seen;
+  register_device_backend({"test-arm", "test-arm:ID",
+                           [&seen](const std::string& spec, std::optional<std::string_view> argument,
+                                   const DeviceOptions& o) -> std::unique_ptr<Device> {
+                             if (!argument || argument->empty()) bad_device_spec(spec, "missing ID");
+                             seen = std::string(*argument);
+                             return std::make_unique<NullDevice>(o.home, o.limits);
+                           }});
+  auto arm = make_device("test-arm:7", options);
+  EXPECT_EQ(seen, "7");
+  EXPECT_EQ(arm->read(0.0).pose.p, Vec3(1, 2, 3));
+  try {
+    (void)make_device("test-arm");
+    ADD_FAILURE() << "no error without an ID";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "device spec 'test-arm': missing ID");
   }
-
-  // The factory hands out the record module's ReplayDevice, which plays the recorded haptic poses.
-  auto once = make_device("replay:" + file.string());
-  EXPECT_EQ(once->info().name, "replay");
-  auto* replay = dynamic_cast<ReplayDevice*>(once.get());
-  ASSERT_NE(replay, nullptr);
-  EXPECT_EQ(replay->size(), 101u);
-  once->start();
-  for (int wait = 0; !replay->ready(0.5) && wait < 10000; ++wait)  // the loader streams the file
-    std::this_thread::sleep_for(std::chrono::microseconds(100));
-  const DeviceState mid = once->read(0.5);
-  EXPECT_TRUE(mid.valid);
-  EXPECT_NEAR(mid.pose.p.x(), 5.0, 1e-9);
-  EXPECT_NEAR(replay->recorded_graphic(0.5).p.z(), 1.5, 1e-9);
-  EXPECT_FALSE(once->read(2.0).valid);  // past the end without looping
-
-  // With ":loop" it starts over instead of ending.
-  auto looped = make_device("replay:" + file.string() + ":loop");
-  looped->start();
-  // The file streams: wait (as replay_test does) until the loader has the second pass in.
-  auto* looping = dynamic_cast<ReplayDevice*>(looped.get());
-  ASSERT_NE(looping, nullptr);
-  for (int wait = 0; !looping->ready(1.01 + 0.5) && wait < 10000; ++wait)
-    std::this_thread::sleep_for(std::chrono::microseconds(100));
-  const DeviceState again = looped->read(1.01 + 0.5);
-  EXPECT_TRUE(again.valid);
-  EXPECT_NEAR(again.pose.p.x(), 5.0, 1e-6);
-  once.reset();
-  looped.reset();
-  std::filesystem::remove(file);
+  register_device_backend({"test-arm", "test-arm:ID",
+                           [](const std::string& spec, std::optional<std::string_view>, const DeviceOptions&)
+                               -> std::unique_ptr<Device> { bad_device_spec(spec, "replaced"); }});
+  EXPECT_THROW((void)make_device("test-arm:7"), Error);
+  const std::vector<std::string> usages = device_spec_usages();
+  EXPECT_EQ(std::count(usages.begin(), usages.end(), "test-arm:ID"), 1);
+  EXPECT_EQ(usages.front(), "null");
+  try {
+    (void)make_device("nothing:here");
+    ADD_FAILURE() << "an unknown spec made a device";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("scripted:FILE[:loop], udp:PORT[:HOST], test-arm:ID"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(DeviceFactory, UdpBindFailureNamesTheAddress) {
