@@ -241,7 +241,9 @@ ReplyBudget::ReplyBudget(double window)
 void ReplyBudget::reset() {
   received_.store(0, std::memory_order_relaxed);
   last_received_ns_.store(std::numeric_limits<int64_t>::min(), std::memory_order_relaxed);
-  answered_ = 0;
+  sent_ = 0;
+  any_sent_ = false;
+  last_echo_ = 0;
 }
 
 void ReplyBudget::received(int64_t now_ns) {
@@ -250,13 +252,15 @@ void ReplyBudget::received(int64_t now_ns) {
   received_.fetch_add(1, std::memory_order_release);
 }
 
-bool ReplyBudget::take(int64_t now_ns) {
-  // A packet not yet answered, received within the window.
+bool ReplyBudget::take(int64_t now_ns, uint32_t echo) {
+  // A pose not answered yet, no more wrenches than packets, the last packet within the window.
   const uint64_t received = received_.load(std::memory_order_acquire);
-  if (received == answered_) return false;
+  if (sent_ >= received || (any_sent_ && echo == last_echo_)) return false;
   const int64_t last = last_received_ns_.load(std::memory_order_relaxed);
   if (now_ns - last > window_ns_) return false;
-  answered_ = received;
+  ++sent_;
+  any_sent_ = true;
+  last_echo_ = echo;
   return true;
 }
 
@@ -462,7 +466,7 @@ void UdpDevice::send_loop(uint32_t seen) {
     const uint64_t client = client_address_.load();
     if (client == 0) continue;
     // Only while the client keeps sending, and never more wrenches than it sent packets.
-    if (!budget_.take(monotonic_ns())) {
+    if (!budget_.take(monotonic_ns(), w.sequence)) {
       withheld_.fetch_add(1, std::memory_order_relaxed);
       continue;
     }

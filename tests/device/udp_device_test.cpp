@@ -251,12 +251,15 @@ TEST(ReplyBudget, EachPacketAnsweredAtMostOnceAndNoneOnceSilent) {
   constexpr int64_t kMs = 1000000;
   constexpr int64_t t0 = 1000000 * kMs;  // any monotonic time
   ReplyBudget budget(1.0);
-  EXPECT_FALSE(budget.take(t0));  // nothing received yet
+  // The servo loop's wrench echoes the newest pose it read: here the count of packets received.
+  uint32_t newest = 0;
+  EXPECT_FALSE(budget.take(t0, newest));  // nothing received yet
 
   // One packet: one reply, however often the servo loop writes.
   budget.received(t0);
+  newest = 1;
   int replies = 0;
-  for (int64_t t = t0; t < t0 + 3000 * kMs; t += kMs) replies += budget.take(t);
+  for (int64_t t = t0; t < t0 + 3000 * kMs; t += kMs) replies += budget.take(t, newest);
   EXPECT_EQ(replies, 1);
 
   // A client at 100 Hz for 2 s, the servo loop at 1 kHz: a reply per packet.
@@ -264,8 +267,11 @@ TEST(ReplyBudget, EachPacketAnsweredAtMostOnceAndNoneOnceSilent) {
   const int64_t t1 = t0 + 10000 * kMs;
   replies = 0;
   for (int64_t t = t1; t < t1 + 2000 * kMs; t += kMs) {
-    if ((t - t1) % (10 * kMs) == 0) budget.received(t);
-    replies += budget.take(t);
+    if ((t - t1) % (10 * kMs) == 0) {
+      budget.received(t);
+      ++newest;
+    }
+    replies += budget.take(t, newest);
   }
   EXPECT_EQ(replies, 200);
 
@@ -274,9 +280,9 @@ TEST(ReplyBudget, EachPacketAnsweredAtMostOnceAndNoneOnceSilent) {
   budget.reset();
   const int64_t t2 = t1 + 10000 * kMs;
   budget.received(t2);
-  EXPECT_FALSE(budget.take(t2 + 1001 * kMs));
+  EXPECT_FALSE(budget.take(t2 + 1001 * kMs, ++newest));
   budget.received(t2 + 1100 * kMs);
-  EXPECT_TRUE(budget.take(t2 + 1100 * kMs));
+  EXPECT_TRUE(budget.take(t2 + 1100 * kMs, ++newest));
 
   // A burst of 10000 packets, then 10 Hz for 5 s, then silence: every reply answers a packet of its
   // own received within the window before it, and every slow packet is answered.
@@ -287,13 +293,15 @@ TEST(ReplyBudget, EachPacketAnsweredAtMostOnceAndNoneOnceSilent) {
   for (int i = 0; i < 10000; ++i) {
     budget.received(t3);
     in.push_back(t3);
+    ++newest;
   }
   for (int64_t t = t3; t < t3 + 8000 * kMs; t += kMs) {
     if (t > t3 && t <= t3 + 5000 * kMs && (t - t3) % (100 * kMs) == 0) {
       budget.received(t);
       in.push_back(t);
+      ++newest;
     }
-    if (budget.take(t)) {
+    if (budget.take(t, newest)) {
       answered.push_back(in.size() - 1);
       ASSERT_LE(t - in.back(), 1000 * kMs);
     }
@@ -323,6 +331,21 @@ std::vector<bridge::WrenchPacket> drain(int fd) {
     if (bridge::parse_wrench(buffer, static_cast<std::size_t>(n), w) == bridge::ParseResult::Wrench)
       out.push_back(w);
   }
+}
+
+// A wrench for the pose before went out after the newest pose arrived: the newest is still
+// answered (each wrench is charged to the pose it answers). Before, the earlier wrench used up the
+// newest pose's credit and its answer was withheld, so a client's last pose could go unanswered.
+TEST(ReplyBudget, TheNewestPoseIsAnsweredAfterAWrenchForTheOneBefore) {
+  constexpr int64_t kMs = 1000000;
+  constexpr int64_t t0 = 1000000 * kMs;
+  ReplyBudget budget(1.0);
+  budget.received(t0);        // pose 1
+  budget.received(t0 + kMs);  // pose 2 arrives while the loop's wrench for pose 1 is on its way
+  EXPECT_TRUE(budget.take(t0 + kMs, 1));
+  EXPECT_TRUE(budget.take(t0 + 2 * kMs, 2));
+  EXPECT_FALSE(budget.take(t0 + 3 * kMs, 2));  // each pose once
+  EXPECT_FALSE(budget.take(t0 + 3 * kMs, 3));  // never more wrenches than packets
 }
 
 TEST(UdpDevice, OnePoseGetsOneWrenchNotAStream) {

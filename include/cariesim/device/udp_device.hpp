@@ -130,15 +130,20 @@ class ReplyBudget {
   void reset();
   /// A packet was accepted from the client at `now_ns` (CLOCK_MONOTONIC ns). One thread.
   void received(int64_t now_ns);
-  /// Whether a wrench may go out at `now_ns`: a packet accepted since the last wrench that went out,
-  /// at most `window` ago. Counts it as answered when so. One (other) thread.
-  bool take(int64_t now_ns);
+  /// Whether a wrench answering the pose with sequence number `echo` may go out at `now_ns`: that
+  /// pose was not answered by the last wrench that went out, fewer wrenches than accepted packets went
+  /// out, and the last packet was accepted at most `window` ago. Counts the wrench when so. Charging
+  /// the pose a wrench answers (not just any packet) lets the newest pose be answered although a
+  /// wrench for the one before went out after it arrived. One (other) thread.
+  bool take(int64_t now_ns, uint32_t echo);
 
  private:
   int64_t window_ns_;
   std::atomic<uint64_t> received_{0};      // packets accepted so far
   std::atomic<int64_t> last_received_ns_;  // when the last one was
-  uint64_t answered_ = 0;                  // the sender's thread only: received_ at its last wrench
+  uint64_t sent_ = 0;                      // the sender's thread only: wrenches that went out
+  bool any_sent_ = false;                  // the sender's thread only: last_echo_ is set
+  uint32_t last_echo_ = 0;                 // the sender's thread only: the pose the last one answered
 };
 
 /// Settings of the UDP device.
