@@ -26,12 +26,22 @@ struct DeviceInfo {
   bool renders_force = true;  ///< false for the mouse: the force is only shown
 };
 
+/// What a device's buttons are mapped to (device/profile.hpp), as bits of DeviceState::actions: held
+/// while the button is pressed.
+enum DeviceAction : uint32_t {
+  kActionClutch = 1u << 0,      ///< the virtual tool stays put while the hand re-centres
+  kActionMarkMild = 1u << 1,    ///< mark a lesion at the tip, graded mild
+  kActionMarkSevere = 1u << 2,  ///< mark a lesion at the tip, graded severe
+  kActionEndCase = 1u << 3,     ///< the trainee is done with this case
+};
+
 /// One reading of the device.
 struct DeviceState {
   Pose pose;                             ///< tool frame (origin at the tip sphere's centre) in the world
   Vec3 velocity = Vec3::Zero();          ///< mm/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s
   uint32_t buttons = 0;                  ///< bit i = button i pressed
+  uint32_t actions = 0;                  ///< DeviceAction bits of the pressed buttons (a profile's map)
   double stamp = 0.0;                    ///< s, servo-clock time at which this reading was taken/received
   uint64_t sequence = 0;                 ///< increases with every new reading
   bool valid = false;                    ///< false until the first reading (or when the source ended)
@@ -65,6 +75,24 @@ struct DeviceCounter {
   uint64_t value = 0;     ///< events so far
 };
 
+/// The clock of a device whose SDK owns the servo thread (OpenHaptics' scheduler, hdStartScheduler):
+/// the servo loop does not start a thread of its own but runs its cycle inside the device's
+/// callback, once per tick of the device, with the same timing report, safety and recording.
+class DeviceClock {
+ public:
+  /// One servo cycle; called on the device's thread with the context given to start_clock.
+  using Tick = void (*)(void* context);
+  virtual ~DeviceClock() = default;
+  /// Hz, the rate the device calls tick at.
+  [[nodiscard]] virtual double rate_hz() const = 0;
+  /// Starts calling tick(context) once per cycle on the device's thread, inside the SDK's frame (the
+  /// tick's read() and write() of the device belong to that frame); throws cariesim::Error when the
+  /// SDK refuses.
+  virtual void start_clock(Tick tick, void* context) = 0;
+  /// Stops calling tick; returns once the last tick has finished. Safe to call twice.
+  virtual void stop_clock() = 0;
+};
+
 /// A haptic device. ServoLoop::start() calls start() and ServoLoop::stop() calls stop(), so a device
 /// may be started again after a stop; start() on a running device does nothing.
 class Device {
@@ -94,6 +122,8 @@ class Device {
   }
   /// Event counters (any thread; may allocate). Empty for devices without any.
   [[nodiscard]] virtual std::vector<DeviceCounter> counters() const { return {}; }
+  /// Non-null when the device clocks the servo loop (DeviceClock); valid after start().
+  virtual DeviceClock* clock() { return nullptr; }
 };
 
 }  // namespace cariesim

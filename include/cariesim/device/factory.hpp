@@ -11,6 +11,7 @@
 ///       std::optional<std::string_view> argument, const DeviceOptions& options) { ... }});
 ///   auto device = make_device("mydevice:3", options);
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -32,6 +33,9 @@ struct DeviceOptions {
   /// accepted transit delay is `input.stale_after`, the age at which the step calls a reading stale.
   InputLimits input;
   bool realtime = true;  ///< the UDP bridge's threads ask for SCHED_FIFO (UdpOptions::realtime_priority)
+  /// A hardware device's profile file (device/profile.hpp, `--device-profile`); none: the backend's
+  /// built-in default.
+  std::optional<std::filesystem::path> profile;
 };
 
 /// Makes a device of one backend from the whole `spec` and its `argument` (the text after the first
