@@ -1,5 +1,5 @@
 // The device factory (device/factory.hpp): a registry of backends by spec prefix, with the null,
-// scripted and UDP backends built in.
+// scripted, UDP and Force Dimension (fd, docs/devices.md) backends built in.
 #include "cariesim/device/factory.hpp"
 
 #include <charconv>
@@ -8,6 +8,9 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/devices.hpp"
+#include "cariesim/device/haptic_device.hpp"
+#include "cariesim/device/hardware_backends.hpp"
+#include "cariesim/device/profile.hpp"
 #include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/device/udp_device.hpp"
 
@@ -60,12 +63,27 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::optional<std::str
   return std::make_unique<UdpDevice>(udp);
 }
 
+// `fd[:INDEX|SERIAL]`: a Force Dimension device (or a Falcon) behind the profile (docs/devices.md).
+std::unique_ptr<Device> make_fd(const std::string& spec, std::optional<std::string_view> argument,
+                                const DeviceOptions& options) {
+  std::unique_ptr<HardwareDevice> hardware;
+  try {
+    hardware = make_fd_device(argument.value_or(std::string_view{}));
+  } catch (const Error& e) {
+    bad_device_spec(spec, e.what());
+  }
+  return std::make_unique<HapticDevice>(
+      std::move(hardware), options.profile ? load_device_profile(*options.profile) : DeviceProfile{},
+      options.home);
+}
+
 // The registry: the built-in backends first; guarded, since a module may register from any thread.
 struct Registry {
   std::mutex mutex;
   std::vector<DeviceBackend> backends{{"null", "null", make_null},
                                       {"scripted", "scripted:FILE[:loop]", make_scripted},
-                                      {"udp", "udp:PORT[:HOST]", make_udp}};
+                                      {"udp", "udp:PORT[:HOST]", make_udp},
+                                      {"fd", "fd[:INDEX|SERIAL]", make_fd}};
 };
 
 Registry& registry() {

@@ -6,8 +6,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <atomic>
 #include <array>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <memory>
@@ -41,7 +41,7 @@ struct Model {
   const char* name;
   int dof_in;
   int dof_out;
-  bool gripper;             // an active gripper: written with dhdSetForceAndTorqueAndGripperForce
+  bool gripper;  // an active gripper: written with dhdSetForceAndTorqueAndGripperForce
   int buttons;
   double max_force;         // N
   double continuous_force;  // N
@@ -125,7 +125,8 @@ struct FdSdk {
 // version is checked before any other symbol is resolved: an old SDK lacks some, and the version is
 // what the user must be told about.
 std::shared_ptr<FdSdk> load_sdk(std::string* version = nullptr) {
-  auto sdk = std::make_shared<FdSdk>(SharedLibrary::open(kWhat, {"libdrd.so.3", "libdhd.so.3"}, kEnvVar, kInstall));
+  auto sdk =
+      std::make_shared<FdSdk>(SharedLibrary::open(kWhat, {"libdrd.so.3", "libdhd.so.3"}, kEnvVar, kInstall));
   const SharedLibrary& lib = sdk->library;
   auto get_version = lib.symbol<fd::GetSdkVersion>("dhdGetSDKVersion");
   std::array<int, 4>& v = sdk->version;
@@ -133,9 +134,8 @@ std::shared_ptr<FdSdk> load_sdk(std::string* version = nullptr) {
   if (version != nullptr) *version = version_text(v);
   const auto& min = fd::kMinimumVersion;
   if (std::lexicographical_compare(v.begin(), v.begin() + 3, min.begin(), min.end()))
-    throw Error(std::string(kWhat) + " (" + lib.path() + ") is version " + version_text(v) +
-                ", older than " + std::to_string(min[0]) + "." + std::to_string(min[1]) + "." +
-                std::to_string(min[2]) +
+    throw Error(std::string(kWhat) + " (" + lib.path() + ") is version " + version_text(v) + ", older than " +
+                std::to_string(min[0]) + "." + std::to_string(min[1]) + "." + std::to_string(min[2]) +
                 ", the oldest with the functions cariesim uses (dhdSetForceAndTorqueAndGripperForce); " +
                 kInstall);
 
@@ -241,9 +241,9 @@ class FdDevice final : public HardwareDevice {
   bool drd_open_ = false;
   // Initialised (homed) as far as calibrate() found; calibrate() may run on a watcher thread.
   std::atomic<bool> homed_{false};
-  bool force_on_ = false;    // dhdEnableForce(DHD_ON) done
-  uint32_t pending_ = 0;     // servo thread: faults met in write()/enable_force(), for the next read()
-  bool faulted_ = false;     // servo thread: the last reading carried a fault; write() sends zero
+  bool force_on_ = false;  // dhdEnableForce(DHD_ON) done
+  uint32_t pending_ = 0;   // servo thread: faults met in write()/enable_force(), for the next read()
+  bool faulted_ = false;   // servo thread: the last reading carried a fault; write() sends zero
 };
 
 // Opens by index or serial, reads what the device is and switches its force off.
@@ -299,12 +299,14 @@ void FdDevice::throw_open_error(int count) const {
     case fd::kErrorDeviceInUse:
       throw Error("fd: the device at " + which +
                   " is in use by another program (another cariesim, a Force Dimension demo, a ROS "
-                  "driver): close it and try again (" + sdk + ")");
+                  "driver): close it and try again (" +
+                  sdk + ")");
     case fd::kErrorNoDriverFound:
       throw Error("fd: no permission to open the device at " + which +
                   " (its USB device is not accessible to this user): add the udev rule of docs/devices.md "
                   "(\"Force Dimension\": /etc/udev/rules.d/99-forcedimension.rules), then unplug and plug "
-                  "it again (" + sdk + ")");
+                  "it again (" +
+                  sdk + ")");
     case fd::kErrorCom:
     case fd::kErrorTimeout:
       throw Error("fd: communication error with the device at " + which +
@@ -314,8 +316,8 @@ void FdDevice::throw_open_error(int count) const {
       if (count <= 0)
         throw Error("fd: no Force Dimension device found: check that it is plugged in and switched on; " +
                     std::string(kUdevHint) + " (" + sdk + ")");
-      throw Error("fd: no device at " + which + " (" + std::to_string(count) +
-                  " attached: `cariesim device list` shows their indices and serial numbers) (" + sdk + ")");
+      throw Error("fd: no device at " + which + " (" + std::to_string(count) + " attached, indices 0 to " +
+                  std::to_string(count - 1) + ") (" + sdk + ")");
     default:
       throw Error("fd: cannot open the device at " + which + " (" + sdk + ")");
   }
@@ -345,15 +347,15 @@ Calibration FdDevice::calibrate() {
     // libdhd.so.3 alone cannot tell or make a device homed.
     homed_ = true;
     return {Readiness::Ready,
-            "homing not checked: " + sdk.library.path() +
-                " has no robotic SDK (DRD); " +
+            "homing not checked: " + sdk.library.path() + " has no robotic SDK (DRD); " +
                 (falcon ? "the Falcon must have been homed by hand since it was plugged in"
                         : "the device must have been initialised since it was switched on (Force "
                           "Dimension's autoinit tool), or load libdrd.so.3 to home it")};
   }
   if (!drd_open_) {
     if (sdk.drd_open_id(id()) < 0)
-      return {Readiness::Failed, "fd: the robotic SDK cannot open the device (SDK: " + sdk.last_error() + ")"};
+      return {Readiness::Failed,
+              "fd: the robotic SDK cannot open the device (SDK: " + sdk.last_error() + ")"};
     drd_open_ = true;
   }
   if (sdk.drd_is_initialized(id())) {
@@ -432,8 +434,9 @@ void FdDevice::write(const Vec3& force, const Vec3& torque) {
     t.setZero();
   }
   const FdSdk& sdk = *sdk_;
-  const int rc = model_.gripper ? sdk.set_force_torque_gripper(f.x(), f.y(), f.z(), t.x(), t.y(), t.z(), 0.0, id())
-                                : sdk.set_force_and_torque(f.x(), f.y(), f.z(), t.x(), t.y(), t.z(), id());
+  const int rc = model_.gripper
+                     ? sdk.set_force_torque_gripper(f.x(), f.y(), f.z(), t.x(), t.y(), t.z(), 0.0, id())
+                     : sdk.set_force_and_torque(f.x(), f.y(), f.z(), t.x(), t.y(), t.z(), id());
   if (rc < 0) fault(faults_of(sdk.error_get_last()));
 }
 

@@ -6,9 +6,12 @@
 // in the SDK's units (N, N·m). The SDK's frame is x toward the operator, y right, z up, in metres.
 #include <dlfcn.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -16,6 +19,8 @@
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
+#include "cariesim/device/haptic_device.hpp"
 #include "cariesim/device/hardware_backends.hpp"
 #include "device/fd_api.hpp"
 #include "support/alloc_counter.hpp"
@@ -390,6 +395,93 @@ TEST_F(FdDeviceTest, TheDhdLibraryAloneDrivesADeviceButCannotHomeIt) {
   device->enable_force(true);
   device->write(Vec3(0.0, 1.0, 0.0), Vec3::Zero());
   EXPECT_EQ(dhd_sdk.last(0).force, Vec3(0.0, 1.0, 0.0));
+}
+
+// Through the factory: `fd` is a HapticDevice over the backend, mapped onto the scene.
+class FdThroughTheFactory : public FdDeviceTest {
+ protected:
+  void SetUp() override {
+    FdDeviceTest::SetUp();
+    // No ramp, so that one cycle's force is the scene's.
+    profile_ = std::filesystem::temp_directory_path() /
+               ("cariesim_fd_profile_" + std::to_string(::getpid()) + ".yaml");
+    std::ofstream(profile_) << "ramp_time: 0\n";
+  }
+  void TearDown() override { std::filesystem::remove(profile_); }
+  std::unique_ptr<Device> make(const std::string& spec = "fd") {
+    DeviceOptions options;
+    options.home.p = Vec3(1.0, 2.0, 12.0);
+    options.profile = profile_;
+    return make_device(spec, options);
+  }
+  std::filesystem::path profile_;
+};
+
+TEST_F(FdThroughTheFactory, ASceneForceReachesTheDeviceAlongItsOwnAxes) {
+  auto device = make();
+  device->start();
+  EXPECT_EQ(device->info().name, "fd");
+  // Out of contact first (the force switch goes on at a small force), then 2 N to the operator's right
+  // (scene x): Force Dimension's +y; then 1.5 N away from the operator (scene y): its -x.
+  device->read(0.0);
+  device->write(Vec3::Zero(), Vec3::Zero());
+  EXPECT_TRUE(sdk_.last(0).on);
+  device->read(0.001);
+  device->write(Vec3(2.0, 0.0, 0.0), Vec3::Zero());
+  EXPECT_NEAR((sdk_.last(0).force - Vec3(0.0, 2.0, 0.0)).norm(), 0.0, 1e-9) << sdk_.last(0).force.transpose();
+  device->read(0.002);
+  device->write(Vec3(0.0, 1.5, 0.0), Vec3::Zero());
+  EXPECT_NEAR((sdk_.last(0).force - Vec3(-1.5, 0.0, 0.0)).norm(), 0.0, 1e-9)
+      << sdk_.last(0).force.transpose();
+  // The hand 10 mm toward the operator (Force Dimension's +x): the tool 10 mm toward the operator in
+  // the scene (-y), from the tool home where the workspace centre maps.
+  sdk_.place(0, 0.0, 0.0, 0.0);
+  const Vec3 centre = device->read(0.003).pose.p;
+  EXPECT_NEAR((centre - Vec3(1.0, 2.0, 12.0)).norm(), 0.0, 1e-6);
+  sdk_.place(0, 0.010, 0.0, 0.0);
+  const Vec3 moved = device->read(0.004).pose.p;
+  EXPECT_NEAR((moved - centre - Vec3(0.0, -10.0, 0.0)).norm(), 0.0, 1e-6) << moved.transpose();
+  // Buttons become the profile's actions (button 1: mark mild).
+  sdk_.set_buttons(0, 0b10u);
+  EXPECT_EQ(device->read(0.005).actions, static_cast<uint32_t>(kActionMarkMild));
+  device->stop();
+  EXPECT_FALSE(sdk_.last(0).on);
+  EXPECT_EQ(sdk_.is_open(0), 0);
+}
+
+TEST_F(FdThroughTheFactory, AnSdkErrorZeroesTheForceInTheSameCycle) {
+  auto device = make();
+  device->start();
+  device->read(0.0);
+  device->write(Vec3::Zero(), Vec3::Zero());
+  device->read(0.001);
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  ASSERT_NEAR(sdk_.last(0).force.norm(), 3.0, 1e-9);
+  sdk_.inject_error(0, fd::kErrorTimeout, 1);
+  const DeviceState state = device->read(0.002);
+  EXPECT_FALSE(state.valid);
+  EXPECT_EQ(sdk_.last(0).force, Vec3::Zero());
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  EXPECT_EQ(sdk_.last(0).force, Vec3::Zero());
+  device->stop();
+}
+
+TEST_F(FdThroughTheFactory, SpecAndSdkErrorsNameTheSpec) {
+  try {
+    make("fd:omega");
+    ADD_FAILURE() << "fd:omega accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("device spec 'fd:omega'"), std::string::npos) << e.what();
+  }
+  const ScopedEnv missing("CARIESIM_FD_LIBRARY", "/nonexistent/libdrd.so.3");
+  try {
+    make("fd:1");
+    ADD_FAILURE() << "loaded a missing SDK";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("device spec 'fd:1': Force Dimension SDK: not found"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // What make_fd_device says when the SDK cannot be used.

@@ -44,11 +44,11 @@ namespace {
 namespace fd = cariesim::fd;
 
 constexpr int kMaxDevices = 4;
-constexpr double kMass = 0.2;         // kg, the handle
-constexpr double kDamping = 4.0;      // N·s/m
+constexpr double kMass = 0.2;             // kg, the handle
+constexpr double kDamping = 4.0;          // N·s/m
 constexpr double kHandStiffness = 400.0;  // N/m, the hand holding the handle
-constexpr double kStep = 2.5e-4;      // s, the simulation's step
-constexpr double kFalconFront = 0.04; // m, the hand-homing marks of the Falcon
+constexpr double kStep = 2.5e-4;          // s, the simulation's step
+constexpr double kFalconFront = 0.04;     // m, the hand-homing marks of the Falcon
 
 struct Dev {
   int type = fd::kDeviceOmega33;
@@ -160,7 +160,8 @@ void advance(Sdk& s) {
     for (double done = 0.0; done < elapsed; done += kStep) {
       const double dt = std::min(kStep, elapsed - done);
       for (int i = 0; i < 3; ++i) {
-        const double f = kHandStiffness * (d.hand[i] - d.p[i]) - kDamping * d.v[i] + (d.force_on ? d.force[i] : 0.0);
+        const double f =
+            kHandStiffness * (d.hand[i] - d.p[i]) - kDamping * d.v[i] + (d.force_on ? d.force[i] : 0.0);
         d.v[i] += f / kMass * dt;
         d.p[i] += d.v[i] * dt;
       }
@@ -210,17 +211,28 @@ int open_index(Sdk& s, int index) {
 
 const char* error_text(int code) {
   switch (code) {
-    case fd::kNoError: return "no error";
-    case fd::kErrorCom: return "communication error between the host and the device";
-    case fd::kErrorDhcBusy: return "device controller busy";
-    case fd::kErrorNoDriverFound: return "required driver not installed";
-    case fd::kErrorNoDeviceFound: return "no compatible device found";
-    case fd::kErrorTimeout: return "communication timeout";
-    case fd::kErrorDeviceNotReady: return "device not ready";
-    case fd::kErrorInvalidIndex: return "invalid index";
-    case fd::kErrorNotImplemented: return "feature not implemented";
-    case fd::kErrorDeviceInUse: return "device in use";
-    default: return "undocumented error";
+    case fd::kNoError:
+      return "no error";
+    case fd::kErrorCom:
+      return "communication error between the host and the device";
+    case fd::kErrorDhcBusy:
+      return "device controller busy";
+    case fd::kErrorNoDriverFound:
+      return "required driver not installed";
+    case fd::kErrorNoDeviceFound:
+      return "no compatible device found";
+    case fd::kErrorTimeout:
+      return "communication timeout";
+    case fd::kErrorDeviceNotReady:
+      return "device not ready";
+    case fd::kErrorInvalidIndex:
+      return "invalid index";
+    case fd::kErrorNotImplemented:
+      return "feature not implemented";
+    case fd::kErrorDeviceInUse:
+      return "device in use";
+    default:
+      return "undocumented error";
   }
 }
 
@@ -373,7 +385,8 @@ int set_wrench(char id, double fx, double fy, double fz, double tx, double ty, d
 }
 }  // namespace
 
-STANDIN_EXPORT int dhdSetForceAndTorque(double fx, double fy, double fz, double tx, double ty, double tz, char id) {
+STANDIN_EXPORT int dhdSetForceAndTorque(double fx, double fy, double fz, double tx, double ty, double tz,
+                                        char id) {
   return set_wrench(id, fx, fy, fz, tx, ty, tz, 0.0);
 }
 
