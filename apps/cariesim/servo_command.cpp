@@ -45,7 +45,11 @@ constexpr int kExitRecordingFailed = 4;
 
 // Set by SIGINT/SIGTERM/SIGHUP; the main thread polls it.
 volatile std::sig_atomic_t g_interrupted = 0;
-extern "C" void on_interrupt(int /*signal*/) { g_interrupted = 1; }
+// Every force stops in the next cycle (request_force_stop), before the session shuts down.
+extern "C" void on_interrupt(int /*signal*/) {
+  request_force_stop();
+  g_interrupted = 1;
+}
 
 // "|F|=... state depth" of the latest snapshot, once per second.
 void print_status(const ServoSnapshot& s) {

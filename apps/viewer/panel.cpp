@@ -211,7 +211,8 @@ void ViewerApp::panel_status() {
                                                                 {kSafetyStale, "stale input"},
                                                                 {kSafetyNonFinite, "non-finite"},
                                                                 {kSafetyInvalidInput, "no input"},
-                                                                {kSafetyJump, "jump"}})
+                                                                {kSafetyJump, "jump"},
+                                                                {kSafetyStopped, "stopped"}})
                                 .c_str());
   // The servo loop.
   ImGui::Separator();
