@@ -366,7 +366,7 @@ Calibration FdDevice::calibrate() {
   if (falcon)
     return {Readiness::NeedsOperator,
             "home the Falcon by hand: pull its grip all the way toward you, then push it all the way "
-            "in (its light turns from red to green or blue once it is homed); force stays off until then"};
+            "in; force stays off until it is homed"};
 
   // Robotic homing: the device moves by itself for a few seconds.
   spdlog::warn("fd: {} is not initialised: homing it robotically now; keep your hands off it", info_.model);

@@ -34,6 +34,15 @@ TEST(FdServo, AnUninitialisedDeviceIsHomedFirstAndTheUserIsTold) {
   EXPECT_THAT(r.err, HasSubstr("limits: 20 N"));
 }
 
+TEST(FdServo, AFalconNotHomedByHandRunsWithoutForceAndSaysHowToHomeIt) {
+  const test::CommandResult r =
+      test::run_cariesim(kServo, kStandIn + " CARIESIM_STANDIN_FD_DEVICES=falcon:777:unhomed");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("fd Falcon: 3-DoF force"));
+  EXPECT_THAT(r.err, HasSubstr("calibration: home the Falcon by hand: pull its grip all the way toward you"));
+  EXPECT_THAT(r.err, HasSubstr("limits: 8.9 N"));
+}
+
 TEST(FdServo, AMissingSdkAndNoDeviceAreNamed) {
   const test::CommandResult missing =
       test::run_cariesim(kServo, "CARIESIM_FD_LIBRARY=/nonexistent/libdrd.so.3");
