@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "camera.hpp"
-#include "cariesim/record/replay.hpp"
+#include "cariesim/device/replay.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
