@@ -46,7 +46,7 @@ struct SceneSession {
   std::unique_ptr<Model> model;
   std::unique_ptr<Session> run;    ///< device, servo loop and record
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
-  ReplayDevice* replay = nullptr;  ///< the device when it is a replay
+  ReplayDevice* replay = nullptr;  ///< the device when it is a replay (device/replay.hpp)
   std::unique_ptr<SceneView> view;
   ~SceneSession();
   /// Stops the servo loop, then the recorder (idempotent).

@@ -139,7 +139,8 @@ ReplayDevice::ReplayDevice(std::unique_ptr<ReplaySource> source, bool loop)
   first_t_ = source_->first_t();
   last_t_ = source_->last_t();
   if (!std::isfinite(first_t_) || !std::isfinite(last_t_) || last_t_ < first_t_)
-    throw Error(source_->description() + ": the recording holds no samples to replay (no increasing finite times)");
+    throw Error(source_->description() +
+                ": the recording holds no samples to replay (no increasing finite times)");
   rows_ = source_->size();
   stream_ = std::make_unique<Stream>();
   Stream& s = *stream_;

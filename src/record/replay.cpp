@@ -96,13 +96,14 @@ RecordingSource::RecordingSource(const std::filesystem::path& file)
   first_t_ = *first;
   last_t_ = *last;
   rows_ = static_cast<std::size_t>(f.max_id - f.min_id + 1);
-  f.batch.emplace(db, fmt::format("SELECT {}, id FROM samples WHERE id > ? ORDER BY id LIMIT ?", sample_columns()));
+  f.batch.emplace(
+      db, fmt::format("SELECT {}, id FROM samples WHERE id > ? ORDER BY id LIMIT ?", sample_columns()));
 
   // The look-up connection.
   f.lookup = record::open_recording(file);
   f.time_at.emplace(*f.lookup, "SELECT t FROM samples WHERE id = ?");
-  f.rows_from.emplace(*f.lookup, fmt::format("SELECT {} FROM samples WHERE id >= ? ORDER BY id LIMIT 2",
-                                             sample_columns()));
+  f.rows_from.emplace(
+      *f.lookup, fmt::format("SELECT {} FROM samples WHERE id >= ? ORDER BY id LIMIT 2", sample_columns()));
 }
 
 // Keep the samples whose time is finite and increasing (a recording's are; anything else could not be

@@ -175,7 +175,8 @@ TEST(OneHome, EveryDeviceLivesInDevice) {
       elsewhere.push_back(found);
   EXPECT_TRUE(elsewhere.empty()) << lines(elsewhere);
   const std::vector<std::string> in_device = occurrences(device_class(), {"include/cariesim/device"}, {});
-  EXPECT_NE(lines(in_device).find("class ReplayDevice : public Device"), std::string::npos) << lines(in_device);
+  EXPECT_NE(lines(in_device).find("class ReplayDevice : public Device"), std::string::npos)
+      << lines(in_device);
 }
 
 TEST(OneHome, TheCheckersFindWhatTheyLookFor) {

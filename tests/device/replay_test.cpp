@@ -40,7 +40,8 @@ ReplayFrame synthetic_frame(std::size_t i, double rate_hz = kRate, double first_
   return f;
 }
 
-std::vector<ReplayFrame> synthetic_frames(std::size_t count = kCount, double rate_hz = kRate, double first_t = 0.0) {
+std::vector<ReplayFrame> synthetic_frames(std::size_t count = kCount, double rate_hz = kRate,
+                                          double first_t = 0.0) {
   std::vector<ReplayFrame> frames;
   for (std::size_t i = 0; i < count; ++i) frames.push_back(synthetic_frame(i, rate_hz, first_t));
   return frames;
@@ -113,7 +114,8 @@ ReplayDevice in_memory(std::vector<ReplayFrame> frames, bool loop = false) {
 
 std::unique_ptr<ReplayDevice> streamed(std::vector<ReplayFrame> frames, bool loop = false,
                                        SourceControl* control = nullptr) {
-  return std::make_unique<ReplayDevice>(std::make_unique<FramesSource>(std::move(frames), false, control), loop);
+  return std::make_unique<ReplayDevice>(std::make_unique<FramesSource>(std::move(frames), false, control),
+                                        loop);
 }
 
 // Waits (as a real-time servo thread never has to) until the loader has the frames around `now`.
@@ -348,10 +350,12 @@ TEST(ReplayDevice, ASourceWithNothingToPlayOrThatFailsIsAnError) {
   std::vector<ReplayFrame> nan_times = synthetic_frames(5);
   for (ReplayFrame& f : nan_times) f.t = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(message_of([] { (void)in_memory({}); }), "test frames: the recording holds no samples to replay");
-  EXPECT_NE(message_of([&] { (void)in_memory(nan_times); }).find("test frames: the recording holds no samples"),
-            std::string::npos);
-  EXPECT_NE(message_of([&] { (void)streamed(nan_times); }).find("test frames: the recording holds no samples"),
-            std::string::npos);
+  EXPECT_NE(
+      message_of([&] { (void)in_memory(nan_times); }).find("test frames: the recording holds no samples"),
+      std::string::npos);
+  EXPECT_NE(
+      message_of([&] { (void)streamed(nan_times); }).find("test frames: the recording holds no samples"),
+      std::string::npos);
   EXPECT_THROW(ReplayDevice(nullptr), Error);
   // The loader's first batch fails: the constructor says why.
   SourceControl control;
