@@ -372,6 +372,15 @@ TEST(ReplayDevice, CountsUnderrunsWhenTheLoaderFallsBehind) {
   SourceControl control;
   control.stall = true;
   const auto device = streamed(frames, false, &control);
+  // Released before the device goes (it joins its loader), whatever fails below.
+  const struct Release {
+    SourceControl& control;
+    ~Release() { control.released = true; }
+  } release{control};
+  // The loader pushed its whole first batch once it asks for the second.
+  for (int wait = 0; control.batches.load() < 2 && wait < 10000; ++wait)
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  ASSERT_EQ(device->buffered_samples(), kReplayBatch);
   const double late = frames[2 * kReplayBatch].t;
   EXPECT_FALSE(device->ready(late));
   for (int i = 0; i < 10; ++i) {
