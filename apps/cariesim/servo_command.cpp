@@ -43,6 +43,9 @@ struct ServoArgs {
 // normally, but what was asked for was not all written (the committed prefix is a valid recording).
 constexpr int kExitRecordingFailed = 4;
 
+// s a hardware device may stay lost (unplugged, its service stopped) before the run ends.
+constexpr double kLostDevice = 1.0;
+
 // Set by SIGINT/SIGTERM/SIGHUP; the main thread polls it.
 volatile std::sig_atomic_t g_interrupted = 0;
 // Every force stops in the next cycle (request_force_stop), before the session shuts down.
@@ -149,7 +152,11 @@ int run_servo(const ServoArgs& args) {
                  session.loop().realtime_status().c_str(), until.c_str());
   }
 
-  // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C.
+  // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C, a
+  // hardware device lost for longer than kLostDevice (its force is zero from the first cycle; the run
+  // and its record then end cleanly, saying why).
+  const auto* haptic = dynamic_cast<const HapticDevice*>(&session.device());
+  double lost_since = -1.0;
   const auto started = std::chrono::steady_clock::now();
   double next_status = 1.0;
   bool seen_valid = false;
@@ -166,6 +173,18 @@ int run_servo(const ServoArgs& args) {
       seen_valid = seen_valid || snapshot.device.valid;
     }
     if (args.duration > 0.0 && elapsed >= args.duration) break;
+    if (haptic != nullptr) {
+      const uint32_t faults = haptic->status().faults;
+      if ((faults & kHardwareLost) == 0) {
+        lost_since = -1.0;
+      } else if (lost_since < 0.0) {
+        lost_since = elapsed;
+      } else if (elapsed - lost_since > kLostDevice) {
+        std::fprintf(stderr, "servo: the device was lost (%s); ending the run\n",
+                     describe_hardware_faults(faults).c_str());
+        break;
+      }
+    }
   }
   // The loop and the device stop before the recorder, which then drains and closes.
   session.stop();
