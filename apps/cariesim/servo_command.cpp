@@ -100,7 +100,8 @@ void print_report(Session& session) {
     const HapticStatus st = haptic->status();
     std::fprintf(stderr, "  %s %s: %s; calibration: %s; force %s; %s", st.hardware.backend.c_str(),
                  st.hardware.model.c_str(), st.rendering().c_str(), st.calibration.message.c_str(),
-                 st.force_enabled ? "was enabled" : "never enabled", st.hardware.dof_out >= 6 ? "\n" : "");
+                 st.force_was_enabled ? "was enabled" : "never enabled",
+                 st.hardware.dof_out >= 6 ? "\n" : "");
     if (st.hardware.dof_out < 6)
       std::fprintf(stderr, "; torque dropped in %llu cycles (largest %.1f N.mm)\n",
                    static_cast<unsigned long long>(st.torque_dropped), st.torque_dropped_max);
@@ -134,15 +135,16 @@ int run_servo(const ServoArgs& args) {
   options.recorder.overwrite = args.overwrite;
   Session session(model, options);
   if (!session.warning().empty()) std::fprintf(stderr, "warning: %s\n", session.warning().c_str());
-  const DeviceInfo& info = session.device_info();
   // A scripted or replayed path that does not loop ends the run when it ends.
-  const bool ends = (info.name == "scripted" || info.name == "replay") && !args.device.ends_with(":loop");
+  const std::string device_name = session.device_info().name;
+  const bool ends = (device_name == "scripted" || device_name == "replay") && !args.device.ends_with(":loop");
 
   // A closed terminal (SIGHUP) ends the run like Ctrl-C: the record is closed with its end time.
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   std::signal(SIGHUP, on_interrupt);
   session.start();
+  const DeviceInfo& info = session.device_info();
   if (!args.quiet) {
     const std::string until = args.duration > 0.0 ? "for " + std::to_string(args.duration) + " s"
                               : ends              ? "until the path ends or Ctrl-C"

@@ -84,6 +84,7 @@ void HapticDevice::start() {
   limits_sent_ = false;
   enabled_ = false;
   ramp_start_ = -1.0;
+  force_was_on_.store(false);
   mean_square_ = 0.0;
   last_square_ = 0.0;
   last_write_ = -1.0;
@@ -186,6 +187,7 @@ void HapticDevice::write(const Vec3& force, const Vec3& torque) {
     hardware_->enable_force(true);
     enabled_ = true;
     force_on_.store(true, std::memory_order_relaxed);
+    force_was_on_.store(true, std::memory_order_relaxed);
     ramp_start_ = now_;
   }
 
@@ -258,6 +260,7 @@ HapticStatus HapticDevice::status() const {
     out.calibration = calibration_;
   }
   out.force_enabled = force_on_.load();
+  out.force_was_enabled = force_was_on_.load();
   out.clutched = clutched_.load();
   out.faults = last_faults_.load();
   out.torque_dropped = torque_dropped_.load();

@@ -155,6 +155,8 @@ void Session::start() {
     stopped_ = true;
     throw;
   }
+  // A hardware device knows what it is once open (its model, serial, SDK, limits).
+  device_info_ = device_->info();
   started_ = true;
 }
 

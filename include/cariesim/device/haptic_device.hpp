@@ -49,6 +49,7 @@ struct HapticStatus {
   HardwareInfo hardware;
   Calibration calibration;    ///< the last calibrate() result
   bool force_enabled = false; ///< the device's force switch is on
+  bool force_was_enabled = false;  ///< it was switched on at some time since start (kept after stop)
   bool clutched = false;      ///< the clutch is held
   uint32_t faults = 0;        ///< HardwareFault bits of the last reading
   uint64_t torque_dropped = 0;    ///< cycles whose torque a 3-DoF-force device could not render
@@ -116,6 +117,7 @@ class HapticDevice : public Device {
   // Shared with other threads.
   std::atomic<bool> ready_{false};
   std::atomic<bool> force_on_{false};
+  std::atomic<bool> force_was_on_{false};
   std::atomic<bool> clutched_{false};
   std::atomic<uint32_t> last_faults_{0};
   std::atomic<uint64_t> torque_dropped_{0};

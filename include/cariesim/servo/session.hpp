@@ -95,6 +95,8 @@ class Session {
   [[nodiscard]] Device& device() { return *device_; }
   [[nodiscard]] const Device& device() const { return *device_; }
   /// What the device said it is when the session was made.
+  /// What the device is: as made, then as started (a hardware device knows its model once open).
+  /// The thread that starts and stops the session.
   [[nodiscard]] const DeviceInfo& device_info() const { return device_info_; }
   /// The servo loop (timing, realtime status, counters).
   [[nodiscard]] ServoLoop& loop() { return *loop_; }
