@@ -9,6 +9,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -194,6 +195,9 @@ std::string operator_step(hd::HDenum style) {
   return "move the stylus through the whole workspace so the device calibrates itself";
 }
 
+// True on HD's scheduler thread while the servo callback runs (inside its frame).
+thread_local bool in_servo_frame = false;
+
 // An OpenHaptics device and, since HD runs the servo thread, its DeviceClock.
 class TouchDevice final : public HardwareDevice, public DeviceClock {
  public:
@@ -239,8 +243,9 @@ class TouchDevice final : public HardwareDevice, public DeviceClock {
   hd::HDenum style_ = 0;
   Calibration calibration_;  // written by run_calibration (control thread or the scheduler's)
   std::atomic<bool> calibrated_{false};
-  // The clock (control thread).
-  bool running_ = false;
+  // The clock (control threads; clock_mutex_ orders starting and stopping it with calibrate()).
+  std::mutex clock_mutex_;
+  std::atomic<bool> running_{false};
   hd::HDSchedulerHandle scheduled_ = 0;
   Tick tick_ = nullptr;
   void* context_ = nullptr;
@@ -402,7 +407,8 @@ void TouchDevice::close() {
 // the scheduler thread's then), directly otherwise.
 Calibration TouchDevice::calibrate() {
   if (!open_) return {Readiness::Failed, "touch: the device is not open"};
-  if (running_)
+  const std::lock_guard lock(clock_mutex_);
+  if (running_.load())
     api_.schedule_synchronous(&TouchDevice::calibration_callback, this, hd::kDefaultSchedulerPriority);
   else
     run_calibration();
@@ -487,9 +493,21 @@ HardwareReading TouchDevice::read() {
 }
 
 // HD_CURRENT_FORCE in N and, on a 6-DoF-force device, HD_CURRENT_TORQUE in mN·m (= N·mm), both in
-// HD's frame; a cycle whose reading carried a fault, or a non-finite wrench, renders zero.
+// HD's frame; a cycle whose reading carried a fault, or a non-finite wrench, renders zero. HD takes
+// forces inside a frame: the servo callback's, or (the clock stopped, e.g. a last zero wrench at
+// stop) one of its own; while the clock runs, only the servo callback writes.
 void TouchDevice::write(const Vec3& force, const Vec3& torque) {
   if (!open_) return;
+  if (!in_servo_frame) {
+    if (running_.load()) return;
+    api_.begin_frame(handle_);
+    in_servo_frame = true;
+    write(force, torque);
+    in_servo_frame = false;
+    api_.end_frame(handle_);
+    collect_faults();
+    return;
+  }
   const bool safe = cycle_faults_ == 0 && force.allFinite() && torque.allFinite();
   const std::array<hd::HDdouble, 3> f = safe ? std::array<hd::HDdouble, 3>{force.x(), force.y(), force.z()}
                                              : std::array<hd::HDdouble, 3>{0.0, 0.0, 0.0};
@@ -523,7 +541,9 @@ hd::HDCallbackCode TouchDevice::servo_callback(void* self) {
   if (device->stopping_.load(std::memory_order_acquire)) return hd::kCallbackDone;
   device->api_.begin_frame(device->handle_);
   device->collect_faults();
+  in_servo_frame = true;
   device->tick_(device->context_);
+  in_servo_frame = false;
   device->api_.end_frame(device->handle_);
   device->collect_faults();
   return hd::kCallbackContinue;
@@ -532,7 +552,8 @@ hd::HDCallbackCode TouchDevice::servo_callback(void* self) {
 // Schedules the servo callback at the highest priority and starts HD's scheduler.
 void TouchDevice::start_clock(Tick tick, void* context) {
   if (!open_) throw Error("touch: start_clock on a device that is not open");
-  if (running_) return;
+  const std::lock_guard lock(clock_mutex_);
+  if (running_.load()) return;
   tick_ = tick;
   context_ = context;
   stopping_.store(false, std::memory_order_release);
@@ -553,7 +574,8 @@ void TouchDevice::start_clock(Tick tick, void* context) {
 // Stops the scheduler (hdStopScheduler returns once its thread has finished its last tick) and
 // removes the callback.
 void TouchDevice::stop_clock() {
-  if (!running_) return;
+  const std::lock_guard lock(clock_mutex_);
+  if (!running_.load()) return;
   stopping_.store(true, std::memory_order_release);
   api_.stop_scheduler();
   api_.unschedule(scheduled_);

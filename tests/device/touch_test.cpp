@@ -415,6 +415,19 @@ TEST_F(TouchTest, ANonFiniteWrenchRendersNothing) {
   EXPECT_EQ(standin.force(), Vec3::Zero());
 }
 
+// The servo loop's last zero wrench comes after the clock stopped: it goes in a frame of its own.
+TEST_F(TouchTest, AWriteWithTheClockStoppedGoesInAFrameOfItsOwn) {
+  auto device = make_touch_device("");
+  device->open();
+  ASSERT_EQ(device->calibrate().readiness, Readiness::Ready);
+  device->enable_force(true);
+  device->write(Vec3(0.0, 0.5, 0.0), Vec3::Zero());
+  EXPECT_TRUE(standin.force().isApprox(Vec3(0.0, 0.5, 0.0))) << standin.force().transpose();
+  device->write(Vec3::Zero(), Vec3::Zero());
+  EXPECT_EQ(standin.force(), Vec3::Zero());
+  EXPECT_EQ(standin.frame_violations(), 0);
+}
+
 TEST_F(TouchTest, CloseSwitchesTheForceOffStopsTheClockAndReleasesTheDevice) {
   Servo servo;
   auto device = start(servo);
