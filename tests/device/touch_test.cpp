@@ -22,6 +22,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/hardware_backends.hpp"
 #include "device/touch_api.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace cariesim {
 namespace {
@@ -426,6 +427,26 @@ TEST_F(TouchTest, AWriteWithTheClockStoppedGoesInAFrameOfItsOwn) {
   device->write(Vec3::Zero(), Vec3::Zero());
   EXPECT_EQ(standin.force(), Vec3::Zero());
   EXPECT_EQ(standin.frame_violations(), 0);
+}
+
+// The servo thread's calls allocate nothing (the stand-in's functions allocate nothing either).
+TEST_F(TouchTest, ReadAndWriteAllocateNothing) {
+  standin.configure("Default Device", "PHANToM Premium 1.5 6DOF", 6, hd::kCalibrationEncoderReset, 188.0);
+  auto device = make_touch_device("");
+  device->open();
+  ASSERT_EQ(device->calibrate().readiness, Readiness::Ready);
+  device->enable_force(true);
+  (void)device->read();
+  device->write(Vec3(0.1, 0.2, 0.3), Vec3(1.0, 2.0, 3.0));
+  const std::size_t before = test::allocation_count();
+  double sum = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    sum += device->read().pose.p.norm();
+    device->write(Vec3(0.1, 0.2, 0.3), Vec3(1.0, 2.0, 3.0));
+  }
+  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_TRUE(std::isfinite(sum));
+  EXPECT_TRUE(standin.torque().isApprox(Vec3(1.0, 2.0, 3.0)));
 }
 
 TEST_F(TouchTest, CloseSwitchesTheForceOffStopsTheClockAndReleasesTheDevice) {
