@@ -71,14 +71,16 @@ struct Standin {
   bool force_output = false;
   int frame_depth = 0;
   int frame_violations = 0;
-  double set_force[3] = {0, 0, 0};              // N, last hdSetDoublev(HD_CURRENT_FORCE)
-  double set_torque[3] = {0, 0, 0};             // mN·m
-  double out_force[3] = {0, 0, 0};              // N, what the motors render (sent at hdEndFrame)
-  double out_torque[3] = {0, 0, 0};             // mN·m
-  double pos[3] = {0, 0, 0};                    // mm
-  double vel[3] = {0, 0, 0};                    // mm/s
-  double hand[3] = {0, 0, 0};                   // mm, where the hand pulls the stylus
-  double rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // column-major 3x3 end-effector orientation
+  double set_force[3] = {0, 0, 0};   // N, last hdSetDoublev(HD_CURRENT_FORCE)
+  double set_torque[3] = {0, 0, 0};  // mN·m
+  double out_force[3] = {0, 0, 0};   // N, what the motors render (sent at hdEndFrame)
+  double out_torque[3] = {0, 0, 0};  // mN·m
+  double pos[3] = {0, 0, 0};         // mm
+  double vel[3] = {0, 0, 0};         // mm/s
+  double hand[3] = {0, 0, 0};        // mm, where the hand pulls the stylus
+  // Column-major 3x3 end-effector orientation; at rest the stylus stands in its inkwell, its axis
+  // (end-effector +z) up along HD's +y: a quarter turn about x.
+  double rot[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0};
   int buttons = 0;
   bool circle = false;
   double time = 0.0;  // s, scheduler time
@@ -493,7 +495,8 @@ void hdUnschedule(HDSchedulerHandle handle) {
 
 // ---- test-only functions ----
 
-// Back to a calibrated Touch at rest at the origin, closed, with no errors, the scheduler stopped.
+// Back to a calibrated Touch at rest at the origin (the stylus in its rest orientation), closed, with no
+// errors, the scheduler stopped.
 void standin_hd_reset() {
   hdStopScheduler();
   Standin& s = state();
@@ -507,8 +510,8 @@ void standin_hd_reset() {
   s.frame_violations = 0;
   for (int i = 0; i < 3; ++i)
     s.set_force[i] = s.set_torque[i] = s.out_force[i] = s.out_torque[i] = s.pos[i] = s.vel[i] = s.hand[i] = 0;
-  const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  std::copy(identity, identity + 9, s.rot);
+  const double rest[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0};
+  std::copy(rest, rest + 9, s.rot);
   s.buttons = 0;
   s.time = 0.0;
   s.errors.clear();
