@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/device/hardware_backends.hpp"
 #include "device/touch_api.hpp"
 #include "support/alloc_counter.hpp"
@@ -482,6 +483,38 @@ TEST_F(TouchTest, TheSurveyNamesTheLibraryAndTheDefaultDevice) {
   EXPECT_TRUE(survey.devices.empty());
   EXPECT_NE(survey.problem.find("not found"), std::string::npos) << survey.problem;
   EXPECT_NE(survey.install.find("OpenHaptics"), std::string::npos);
+}
+
+// Through the factory's `touch` (a HapticDevice with the default profile): turning the stylus about
+// HD's y (up) turns the tool as much about the scene's z (up), moving it toward the user moves the
+// tool toward the operator (scene -y), and button 1 is the default profile's mark mild.
+TEST_F(TouchTest, TheFactorysTouchMapsHdsFrameOntoTheScene) {
+  DeviceOptions options;
+  options.home = Pose{Vec3(5.0, 6.0, 7.0), Quat(Eigen::AngleAxisd(0.3, Vec3(0.0, 1.0, 0.0)))};
+  auto device = make_device("touch", options);
+  device->start();
+  EXPECT_EQ(device->info().name, "touch");
+  EXPECT_NE(device->info().description.find("Touch #220-00042"), std::string::npos)
+      << device->info().description;
+  const DeviceState home = device->read(0.0);
+  ASSERT_TRUE(home.valid);
+  EXPECT_TRUE(home.pose.p.isApprox(options.home.p, 1e-9)) << home.pose.p.transpose();
+  EXPECT_LT(home.pose.q.angularDistance(options.home.q), 1e-9);
+  const Quat rest(Eigen::AngleAxisd(-std::numbers::pi / 2.0, Vec3::UnitX()));
+  const Quat turned = Quat(Eigen::AngleAxisd(0.5, Vec3::UnitY())) * rest;
+  standin.set_orientation(turned.w(), turned.x(), turned.y(), turned.z());
+  standin.place(0.0, 0.0, 10.0);
+  standin.set_buttons(0b10);
+  const DeviceState moved = device->read(0.001);
+  ASSERT_TRUE(moved.valid);
+  const Quat expected = Quat(Eigen::AngleAxisd(0.5, Vec3::UnitZ())) * options.home.q;
+  EXPECT_LT(moved.pose.q.angularDistance(expected), 1e-9);
+  EXPECT_TRUE(moved.pose.p.isApprox(options.home.p + Vec3(0.0, -10.0, 0.0), 1e-9))
+      << moved.pose.p.transpose();
+  EXPECT_EQ(moved.buttons, 0b10u);
+  EXPECT_EQ(moved.actions, static_cast<uint32_t>(kActionMarkMild));
+  device->stop();
+  EXPECT_EQ(standin.is_open(), 0);
 }
 
 }  // namespace
