@@ -63,6 +63,19 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::optional<std::str
   return std::make_unique<UdpDevice>(udp);
 }
 
+// `touch[:NAME]`: OpenHaptics HD's device configured under NAME (none: the default device).
+std::unique_ptr<Device> make_touch(const std::string& spec, std::optional<std::string_view> argument,
+                                   const DeviceOptions& options) {
+  if (argument && argument->empty()) bad_device_spec(spec, "empty device name (expected touch[:NAME])");
+  try {
+    return std::make_unique<HapticDevice>(
+        make_touch_device(argument.value_or(std::string_view{})),
+        options.profile ? load_device_profile(*options.profile) : DeviceProfile{}, options.home);
+  } catch (const Error& e) {
+    bad_device_spec(spec, e.what());
+  }
+}
+
 // `fd[:INDEX|SERIAL]`: a Force Dimension device (or a Falcon) behind the profile (docs/devices.md).
 std::unique_ptr<Device> make_fd(const std::string& spec, std::optional<std::string_view> argument,
                                 const DeviceOptions& options) {
@@ -83,6 +96,7 @@ struct Registry {
   std::vector<DeviceBackend> backends{{"null", "null", make_null},
                                       {"scripted", "scripted:FILE[:loop]", make_scripted},
                                       {"udp", "udp:PORT[:HOST]", make_udp},
+                                      {"touch", "touch[:NAME]", make_touch},
                                       {"fd", "fd[:INDEX|SERIAL]", make_fd}};
 };
 

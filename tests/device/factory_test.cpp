@@ -139,6 +139,7 @@ TEST(DeviceFactory, ABackendRegisteredFromAbove) {
     const std::string what = e.what();
     EXPECT_NE(what.find("null, scripted:FILE[:loop], udp:PORT[:HOST], "), std::string::npos) << what;
     EXPECT_NE(what.find("fd[:INDEX|SERIAL]"), std::string::npos) << what;
+    EXPECT_NE(what.find("touch[:NAME]"), std::string::npos) << what;
     EXPECT_NE(what.find(", test-arm:ID, or mouse"), std::string::npos) << what;
   }
 }
