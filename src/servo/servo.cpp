@@ -151,6 +151,15 @@ void ServoLoop::start() {
   rate_mark_cycles_ = cycles_.load(std::memory_order_relaxed);
   measured_rate_ = options_.rate_hz;
   next_cycle_.store(0, std::memory_order_relaxed);
+  // A device whose SDK owns the servo thread clocks the loop: each of its ticks runs one cycle, at
+  // the device's rate (dt is its period), on its thread.
+  clock_ = device_.clock();
+  if (clock_ != nullptr) {
+    start_clocked();
+    return;
+  }
+  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options_.rate_hz));
+  dt_ = static_cast<double>(period_ns_) * 1e-9;
   // With a standby: the servo thread on the highest CPU of the process's affinity, the standby on the
   // next; with only one CPU, no standby.
   const std::vector<int> allowed = options_.standby ? allowed_cpus() : std::vector<int>{};
@@ -186,10 +195,58 @@ void ServoLoop::start() {
   }
 }
 
+void ServoLoop::start_clocked() {
+  const double rate = clock_->rate_hz();
+  try {
+    check_servo_rate(rate);
+  } catch (const Error& e) {
+    device_.stop();
+    throw Error(std::string("the device's servo clock: ") + e.what());
+  }
+  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / rate));
+  dt_ = static_cast<double>(period_ns_) * 1e-9;
+  measured_rate_ = rate;
+  clock_cycles_ = 0;
+  last_tick_ns_ = 0;
+  cpus_ = {-1, -1};
+  running_.store(true);
+  try {
+    clock_->start_clock(&ServoLoop::clock_tick, this);
+  } catch (...) {
+    running_.store(false);
+    device_.stop();
+    throw;
+  }
+  realtime_status_ = "clocked by the device's scheduler at " + std::to_string(std::lround(rate)) +
+                     " Hz (its thread and priority)";
+}
+
+void ServoLoop::clock_tick(void* context) {
+  auto* loop = static_cast<ServoLoop*>(context);
+  if (loop->running_.load(std::memory_order_acquire)) loop->tick();
+}
+
+void ServoLoop::tick() {
+  // One cycle per tick of the device's clock: servo time advances by the fixed dt per tick; the
+  // jitter is how much later than one period after the previous tick this one came.
+  const int64_t wake = monotonic_ns();
+  const int64_t expected = last_tick_ns_ > 0 ? last_tick_ns_ + period_ns_ : wake;
+  jitter_hist_.add(static_cast<double>(std::max<int64_t>(0, wake - expected)) * 1e-3);
+  last_tick_ns_ = wake;
+  const double t = time_base_ + static_cast<double>(clock_cycles_++) * dt_;
+  const int64_t end = cycle(t, wake, wake);
+  last_t_ = t;
+  elapsed_.store(elapsed_base_ + static_cast<double>(end - start_ns_) * 1e-9, std::memory_order_relaxed);
+}
+
 void ServoLoop::stop() {
   if (!running_.exchange(false)) return;
-  thread_.join();
-  if (standby_thread_.joinable()) standby_thread_.join();
+  if (clock_ != nullptr) {
+    clock_->stop_clock();  // returns once the last tick has finished
+  } else {
+    thread_.join();
+    if (standby_thread_.joinable()) standby_thread_.join();
+  }
   // Leave the device with no force, and continue the servo clock at the next start.
   device_.set_status(
       DeviceStatus{state_code(state_->interaction()), state_->depth(), 0, 0, limits_announced_});

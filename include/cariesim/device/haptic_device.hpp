@@ -93,6 +93,7 @@ class HapticDevice : public Device {
   DeviceProfile profile_;
   Pose home_;
   HardwareInfo info_;
+  DeviceLimits limits_;  // what the device can render, in the scene (set at start; announced)
   // Mapping (set at start): scene position = map_q_ * (scale * device) + map_t_ + clutch_offset_.
   Quat map_q_ = Quat::Identity();  // profile rotation * backend axes
   Vec3 map_t_ = Vec3::Zero();      // mm
@@ -107,6 +108,7 @@ class HapticDevice : public Device {
   double now_ = 0.0;            // s, servo time of the last read
   double ramp_start_ = -1.0;    // s, when the force last started ramping in
   double mean_square_ = 0.0;    // N², the thermal model's state
+  double last_square_ = 0.0;    // N², the squared force written last
   double last_write_ = -1.0;    // s
   uint32_t faults_ = 0;
   bool reading_valid_ = false;

@@ -143,6 +143,12 @@ Params initial_params(const Model& model, const DeviceLimits& device);
 /// between the two with a happens-before. The device, the snapshot buffer and the sample queue keep a
 /// single user at a time.
 ///
+/// A device whose SDK owns the servo thread (Device::clock(), e.g. OpenHaptics' scheduler) clocks the
+/// loop instead: start() starts no thread of its own, and each tick of the device's clock runs one
+/// cycle on the device's thread, with dt the device's period (servo time advances by dt per tick) and
+/// the same safety, snapshot, samples and timing report (jitter: how much later than one period after
+/// the previous tick a tick came). ServoOptions::rate_hz, spin_us and standby do not apply then.
+///
 /// Limits: the step clamps the wrench to Params::limits (the one clamp). They start as the scene's
 /// within the device's (initial_params); when the device announces limits (Device::poll_limits) and
 /// check_limits accepts them, they become the scene's within the announced ones, the coupling
@@ -187,7 +193,7 @@ class ServoLoop {
   /// The running Params, if the servo thread published a new version since the last call (one
   /// reader thread; the first call after construction always gets the starting ones).
   bool latest_params(PublishedParams& out) { return params_out_.read(out); }
-  /// The fixed step, 1 / rate_hz (s).
+  /// The fixed step, 1 / rate_hz (s); with a device's clock, its period (after start()).
   [[nodiscard]] double dt() const { return dt_; }
   /// µs polled before each deadline: ServoOptions::spin_us, at most half the period.
   [[nodiscard]] double spin_us() const { return static_cast<double>(spin_ns_) * 1e-3; }
@@ -203,6 +209,10 @@ class ServoLoop {
   /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
   /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
   int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
+  /// Starts a loop clocked by the device (DeviceClock), and its tick.
+  void start_clocked();
+  static void clock_tick(void* context);
+  void tick();
   /// Applies queued changes and announced limits to params_; true when they changed. Servo thread.
   bool update_params();
   const Model& model_;
@@ -212,6 +222,9 @@ class ServoLoop {
   double dt_;  // s
   int64_t period_ns_;
   int64_t spin_ns_;  // the polled end of each wait: options.spin_us, at most half the period
+  DeviceClock* clock_ = nullptr;  // the device's clock while it clocks the loop, else null
+  uint64_t clock_cycles_ = 0;     // ticks of the device's clock in this run
+  int64_t last_tick_ns_ = 0;      // CLOCK_MONOTONIC ns of the last tick (0: none yet)
   std::unique_ptr<State> state_;
   ForceSafety safety_;
   TripleBuffer<ServoSnapshot> snapshots_;
