@@ -8,6 +8,9 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/devices.hpp"
+#include "cariesim/device/haptic_device.hpp"
+#include "cariesim/device/hardware_backends.hpp"
+#include "cariesim/device/profile.hpp"
 #include "cariesim/device/trajectory_csv.hpp"
 #include "cariesim/device/udp_device.hpp"
 
@@ -60,12 +63,25 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::optional<std::str
   return std::make_unique<UdpDevice>(udp);
 }
 
+// `haply[:URL]`: an Inverse3 through Haply's Inverse Service (docs/devices.md).
+std::unique_ptr<Device> make_haply(const std::string& spec, std::optional<std::string_view> argument,
+                                   const DeviceOptions& options) {
+  try {
+    return std::make_unique<HapticDevice>(
+        make_haply_device(argument.value_or(std::string_view{})),
+        options.profile ? load_device_profile(*options.profile) : DeviceProfile{}, options.home);
+  } catch (const Error& e) {
+    bad_device_spec(spec, e.what());
+  }
+}
+
 // The registry: the built-in backends first; guarded, since a module may register from any thread.
 struct Registry {
   std::mutex mutex;
   std::vector<DeviceBackend> backends{{"null", "null", make_null},
                                       {"scripted", "scripted:FILE[:loop]", make_scripted},
-                                      {"udp", "udp:PORT[:HOST]", make_udp}};
+                                      {"udp", "udp:PORT[:HOST]", make_udp},
+                                      {"haply", "haply[:URL]", make_haply}};
 };
 
 Registry& registry() {

@@ -56,6 +56,7 @@ constexpr auto kCloseTimeout = 1s;             // close(): the zero-force comman
 constexpr int kRateSamples = 20;               // answers open() times for the rate
 constexpr double kStalePeriods = 5.0;          // a state older than this many answer periods is stale
 constexpr int64_t kStaleFloorNs = 10'000'000;  // ... but never younger than 10 ms
+constexpr int64_t kCalibrationFreshNs = 100'000'000;  // calibrate(): a state this recent is streaming
 constexpr double kMmPerM = 1000.0;
 
 // cariesim's figures for an Inverse3 (the service announces none): conservative, below the device's.
@@ -213,10 +214,12 @@ class HaplyDevice final : public HardwareDevice {
   TripleBuffer<Command> command_;
   TripleBuffer<Sample> sample_;
   std::atomic<bool> force_on_{false};
-  Sample latest_;          // servo thread: the newest sample read
-  Sample last_;            // I/O thread: the newest sample published
-  std::string reported_;   // I/O thread: the problem logged last ("" while streaming)
-  double period_s_ = 0.0;  // I/O thread: the answers' mean period (exponential average)
+  std::atomic<int64_t> newest_ns_{0};       // the newest sample's time, for calibrate()
+  std::atomic<uint32_t> newest_faults_{0};  // and its faults
+  Sample latest_;                           // servo thread: the newest sample read
+  Sample last_;                             // I/O thread: the newest sample published
+  std::string reported_;                    // I/O thread: the problem logged last ("" while streaming)
+  double period_s_ = 0.0;                   // I/O thread: the answers' mean period (exponential average)
   int64_t last_answer_ns_ = 0;
 
   // open() <- I/O thread: the first session's outcome and the answers timed.
@@ -242,6 +245,7 @@ void HaplyDevice::open() {
   startup_ = Startup::Pending;
   startup_error_.clear();
   answers_ = 0;
+  newest_ns_ = 0;
   period_s_ = 0.0;
   last_answer_ns_ = 0;
   io_ = std::make_unique<Io>();
@@ -294,14 +298,18 @@ Calibration HaplyDevice::calibrate() {
     c.message = "the Haply device is not open";
     return c;
   }
-  const HardwareReading r = read();
-  if (r.valid) {
+  // Not read(): the servo thread is the triple buffer's one reader.
+  const int64_t newest = newest_ns_.load(std::memory_order_acquire);
+  const uint32_t faults =
+      newest_faults_.load(std::memory_order_acquire) |
+      (newest == 0 || monotonic_ns() - newest > kCalibrationFreshNs ? kHardwareCommunication : 0u);
+  if (faults == 0) {
     c.readiness = Readiness::Ready;
     c.message = "Inverse3 " + device_id_ + " streaming at " +
                 std::to_string(static_cast<int>(info_.rate_hz)) + " Hz (it calibrates itself at power-up)";
   } else {
     c.readiness = Readiness::NeedsOperator;
-    c.message = "Inverse3 " + device_id_ + ": " + describe_hardware_faults(r.faults) +
+    c.message = "Inverse3 " + device_id_ + ": " + describe_hardware_faults(faults) +
                 "; power-cycle it with the VerseGrip in its holder and check the service";
   }
   return c;
@@ -360,12 +368,15 @@ void HaplyDevice::publish(const haply::State& state, int64_t now_ns) {
   last_.received_ns = now_ns;
   last_.stale_ns = std::max(kStaleFloorNs, static_cast<int64_t>(kStalePeriods * period_s_ * 1e9));
   sample_.write(last_);
+  newest_faults_.store(0, std::memory_order_release);
+  newest_ns_.store(now_ns, std::memory_order_release);
 }
 
 // The last pose with a fault (the servo thread zeroes the force in the cycle it reads it).
 void HaplyDevice::publish_fault(uint32_t faults) {
   last_.faults = faults;
   sample_.write(last_);
+  newest_faults_.store(faults, std::memory_order_release);
   last_answer_ns_ = 0;
 }
 

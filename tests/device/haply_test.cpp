@@ -4,7 +4,10 @@
 // orientation and buttons as they are; force stays zero until enabled and after close; another
 // service version, no Inverse3 and no service each refuse to open with their message; slow answers
 // make the reading stale (a communication fault), the service going away makes it lost, and the
-// backend reconnects when the service is back; the servo-thread calls allocate nothing.
+// backend reconnects when the service is back; the servo-thread calls allocate nothing. Through the
+// factory's `haply:URL` (a HapticDevice): the workspace centre maps to the tool home, the grip's turn
+// to the tool's, buttons to actions, the force enables, ramps in and reaches the service, a stale
+// reading zeroes it, and stop switches it off.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -12,7 +15,9 @@
 #include <functional>
 #include <thread>
 
+#include "cariesim/common/clock.hpp"
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/factory.hpp"
 #include "cariesim/device/hardware_backends.hpp"
 #include "standins/haply/inverse_service.hpp"
 #include "support/alloc_counter.hpp"
@@ -250,6 +255,88 @@ TEST(HaplyDevice, DeviceUnpluggedMidRunIsLost) {
   EXPECT_TRUE(until(*device, [](const HardwareReading& x) { return (x.faults & kHardwareLost) != 0; }));
   service.set_inverse3(true);
   EXPECT_TRUE(until(*device, [](const HardwareReading& x) { return x.valid; }));
+}
+
+TEST(HaplyDevice, CalibrationNeedsAStreamingService) {
+  test::InverseService service;
+  auto device = make_haply_device(service.url());
+  EXPECT_EQ(device->calibrate().readiness, Readiness::Failed);  // not open
+  device->open();
+  EXPECT_EQ(device->calibrate().readiness, Readiness::Ready);
+  service.go_away();
+  ASSERT_TRUE(until([&] { return device->calibrate().readiness == Readiness::NeedsOperator; }));
+  EXPECT_THAT(device->calibrate().message, HasSubstr("device lost"));
+  service.come_back();
+  EXPECT_TRUE(until([&] { return device->calibrate().readiness == Readiness::Ready; }));
+}
+
+// The servo loop's side of a HapticDevice: read at `now`, then write the force.
+struct Servo {
+  Device& device;
+  double start = static_cast<double>(monotonic_ns()) * 1e-9;
+  DeviceState cycle(const Vec3& force) {
+    const DeviceState state = device.read(static_cast<double>(monotonic_ns()) * 1e-9 - start);
+    device.write(force, Vec3::Zero());
+    return state;
+  }
+  // Cycles every ms writing `force` until `done` (at most `seconds`).
+  bool until(const Vec3& force, const std::function<bool(const DeviceState&)>& done, double seconds = 3.0) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      if (done(cycle(force))) return true;
+      std::this_thread::sleep_for(1ms);
+    }
+    return false;
+  }
+};
+
+TEST(HaplyHapticDevice, MapsRendersAndSwitchesOff) {
+  test::InverseService service;
+  service.place_cursor(Vec3(0.0, 0.1, 0.1));  // m: the centre of the backend's workspace
+  DeviceOptions options;
+  options.home.p = Vec3(5.0, -3.0, 12.0);
+  std::unique_ptr<Device> device = make_device("haply:" + service.url(), options);
+  device->start();
+  EXPECT_EQ(device->info().name, "haply");
+  Servo servo{*device};
+  DeviceState s;
+  ASSERT_TRUE(servo.until(Vec3::Zero(), [&](const DeviceState& x) {
+    s = x;
+    return x.valid;
+  }));
+  EXPECT_TRUE(s.pose.p.isApprox(options.home.p, 1e-6)) << s.pose.p.transpose();
+  EXPECT_NEAR(s.pose.q.angularDistance(options.home.q), 0.0, 1e-9);
+
+  // The hand 10 mm to the right and the grip turned 0.3 rad about z: the tool follows.
+  service.place_cursor(Vec3(0.01, 0.1, 0.1));
+  service.set_orientation(Quat(Eigen::AngleAxisd(0.3, Vec3::UnitZ())));
+  ASSERT_TRUE(servo.until(Vec3::Zero(), [&](const DeviceState& x) {
+    s = x;
+    return x.valid && std::abs(x.pose.p.x() - 15.0) < 1e-6 && x.pose.q.angularDistance(options.home.q) > 0.29;
+  }));
+  EXPECT_NEAR(s.pose.q.angularDistance(options.home.q), 0.3, 1e-9);
+
+  // Button b marks mild (the default profile).
+  service.set_buttons(0b010);
+  ASSERT_TRUE(
+      servo.until(Vec3::Zero(), [](const DeviceState& x) { return (x.actions & kActionMarkMild) != 0; }));
+  service.set_buttons(0);
+
+  // A press: the force enables (the tool out of contact), ramps in and reaches the service in N.
+  const Vec3 press(0.0, 0.0, -2.0);
+  ASSERT_TRUE(
+      servo.until(press, [&](const DeviceState&) { return (service.last_force() - press).norm() < 1e-9; }));
+
+  // A stale reading (slow answers): the force written is zero in that very cycle.
+  service.set_answer_delay(0.2);
+  ASSERT_TRUE(servo.until(press, [](const DeviceState& x) { return !x.valid; }));
+  service.set_answer_delay(0.0);
+  EXPECT_TRUE(until([&] { return service.last_force() == Vec3::Zero(); }));
+
+  ASSERT_TRUE(
+      servo.until(press, [&](const DeviceState&) { return (service.last_force() - press).norm() < 1e-9; }));
+  device->stop();
+  EXPECT_EQ(service.last_force(), Vec3::Zero());
 }
 
 TEST(HaplyDevice, ServoThreadCallsAllocateNothing) {
