@@ -49,6 +49,8 @@ struct InverseService::Impl {
   Vec3 hand = Vec3::Zero();
   Vec3 x = Vec3::Zero(), v = Vec3::Zero();  // m, m/s
   Vec3 force = Vec3::Zero();                // N, commanded
+  Vec3 peak = Vec3::Zero();                 // N, the largest commanded
+  Vec3 nonzero = Vec3::Zero();              // N, the newest non-zero commanded
   Quat q = Quat::Identity();
   uint32_t buttons = 0;
   uint64_t commands = 0, bad = 0, accepted = 0;
@@ -108,6 +110,8 @@ struct InverseService::Impl {
       if (d.at("device_id").get<std::string>() != options.device_id) throw std::runtime_error("device");
       const json& values = d.at("commands").at("set_cursor_force").at("values");
       force = Vec3(values.at("x").get<double>(), values.at("y").get<double>(), values.at("z").get<double>());
+      if (force.norm() > peak.norm()) peak = force;
+      if (force != Vec3::Zero()) nonzero = force;
       ++commands;
     } catch (const std::exception&) {
       ++bad;
@@ -310,6 +314,14 @@ void InverseService::set_buttons(uint32_t bits) {
 Vec3 InverseService::last_force() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   return impl_->force;
+}
+Vec3 InverseService::peak_force() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->peak;
+}
+Vec3 InverseService::last_nonzero_force() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->nonzero;
 }
 Vec3 InverseService::position() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);

@@ -52,12 +52,14 @@ class InverseService {
   void set_buttons(uint32_t bits);          ///< bit 0: a, 1: b, 2: c
 
   // Read back.
-  [[nodiscard]] Vec3 last_force() const;        ///< N, the newest set_cursor_force's values
-  [[nodiscard]] Vec3 position() const;          ///< m, the cursor
-  [[nodiscard]] uint64_t commands() const;      ///< set_cursor_force commands received
-  [[nodiscard]] uint64_t bad_commands() const;  ///< messages that were not a command of this device
-  [[nodiscard]] uint64_t connections() const;   ///< WebSocket sessions accepted so far
-  [[nodiscard]] int open_connections() const;   ///< WebSocket sessions open now
+  [[nodiscard]] Vec3 last_force() const;          ///< N, the newest set_cursor_force's values
+  [[nodiscard]] Vec3 peak_force() const;          ///< N, the largest set_cursor_force so far
+  [[nodiscard]] Vec3 last_nonzero_force() const;  ///< N, the newest set_cursor_force that was not zero
+  [[nodiscard]] Vec3 position() const;            ///< m, the cursor
+  [[nodiscard]] uint64_t commands() const;        ///< set_cursor_force commands received
+  [[nodiscard]] uint64_t bad_commands() const;    ///< messages that were not a command of this device
+  [[nodiscard]] uint64_t connections() const;     ///< WebSocket sessions accepted so far
+  [[nodiscard]] int open_connections() const;     ///< WebSocket sessions open now
 
  private:
   struct Impl;
