@@ -228,6 +228,7 @@ class HaplyDevice final : public HardwareDevice {
   Startup startup_ = Startup::Pending;
   std::string startup_error_;
   int answers_ = 0;
+  double startup_period_s_ = 0.0;  // s, the answers' period when open() stopped waiting
 };
 
 // The version and inventory over HTTP, then the WebSocket on the I/O thread; waits for its first
@@ -245,6 +246,7 @@ void HaplyDevice::open() {
   startup_ = Startup::Pending;
   startup_error_.clear();
   answers_ = 0;
+  startup_period_s_ = 0.0;
   newest_ns_ = 0;
   period_s_ = 0.0;
   last_answer_ns_ = 0;
@@ -257,13 +259,14 @@ void HaplyDevice::open() {
   });
   const Startup how = startup_;
   const std::string why = startup_error_;
+  const double period = startup_period_s_;
   lock.unlock();
   if (how != Startup::Running) {
     stop_io();
     throw Error("Haply Inverse Service at " + endpoint_.describe() + ": " +
                 (how == Startup::Failed ? why : std::string("no state on the WebSocket within 3 s")));
   }
-  info_.rate_hz = period_s_ > 0.0 ? 1.0 / period_s_ : 1000.0;
+  info_.rate_hz = period > 0.0 ? 1.0 / period : 1000.0;
   opened_ = true;
 }
 
@@ -489,6 +492,7 @@ asio::awaitable<bool> HaplyDevice::session(bool first) {
       if (first && answers_ < kRateSamples) {  // open() waits for these, which time the rate
         const std::lock_guard<std::mutex> lock(startup_mutex_);
         ++answers_;
+        startup_period_s_ = period_s_;
         if (startup_ == Startup::Pending) startup_ = Startup::Running;
         startup_cv_.notify_all();
       }
