@@ -47,8 +47,13 @@ int connect_to(const std::string& host, uint16_t port) {
   return fd;
 }
 
+// ns between two hellos while none is acknowledged (the simulator not started yet, or it refused the
+// limits: then each refusal is counted in its report and the scene's limits apply).
+constexpr int64_t kHelloRepeatNs = 500'000'000;
+
 struct Summary {
   uint64_t sent = 0;
+  uint64_t hellos = 0;
   uint64_t received = 0;
   uint64_t bad = 0;
   double max_force = 0.0;  // N
@@ -107,17 +112,25 @@ int main(int argc, char** argv) {
     uint32_t sequence = 0;
     Summary summary;
 
-    // Hello: the device's limits (the simulator never exceeds them) and its name.
+    // Hello: the device's limits (the simulator never exceeds them) and its name. It is sent again
+    // every kHelloRepeat until a wrench acknowledges it (flag bit 15), so the client may start
+    // before the simulator: a hello sent to nobody is not lost.
     bridge::HelloPacket hello;
-    hello.sequence = sequence++;
-    hello.client_time = static_cast<double>(monotonic_ns()) * 1e-9;
     hello.max_force = max_force;
     hello.max_stiffness = max_stiffness;
     hello.max_torque = max_torque;
     hello.workspace_min = Vec3::Constant(-200.0);
     hello.workspace_max = Vec3::Constant(200.0);
     std::copy_n(name.begin(), std::min(name.size(), hello.name.size()), hello.name.begin());
-    ::send(fd, out.data(), bridge::encode_hello(hello, out.data(), out.size()), 0);
+    bool acknowledged = false;
+    int64_t next_hello = monotonic_ns();
+    const auto send_hello = [&] {
+      hello.sequence = sequence++;
+      hello.client_time = static_cast<double>(monotonic_ns()) * 1e-9;
+      if (::send(fd, out.data(), bridge::encode_hello(hello, out.data(), out.size()), 0) > 0)
+        ++summary.hellos;
+      next_hello = monotonic_ns() + kHelloRepeatNs;
+    };
 
     // The client's servo loop: absolute deadlines at the given rate.
     const int64_t period = static_cast<int64_t>(std::llround(1e9 / rate));
@@ -129,6 +142,7 @@ int main(int argc, char** argv) {
       sleep_until_ns(deadline);
       const double t = static_cast<double>(deadline - start) * 1e-9;
       if (t > duration) break;
+      if (!acknowledged && monotonic_ns() >= next_hello) send_hello();
 
       // Read "the device": here the trajectory at time t.
       const double local = loop && length > 0.0 ? std::fmod(t, length) : std::min(t, length);
@@ -154,6 +168,10 @@ int main(int argc, char** argv) {
           continue;
         }
         ++summary.received;
+        if ((w.flags & bridge::kWrenchLimitsAcknowledged) != 0 && !acknowledged) {
+          acknowledged = true;
+          if (!quiet) std::printf("t=%8.3f hello acknowledged: the device's limits are in force\n", t);
+        }
         summary.last_echo = w.sequence;
         summary.max_force = std::max(summary.max_force, w.force.norm());
         summary.rtt_sum += static_cast<double>(monotonic_ns()) * 1e-9 - w.client_time;
@@ -166,10 +184,12 @@ int main(int argc, char** argv) {
     }
     ::close(fd);
     std::printf(
-        "sent %llu poses, received %llu wrenches (%llu invalid), last echo %u, max |F| %.3f N, "
-        "mean pose-to-wrench time %.3f ms\n",
-        static_cast<unsigned long long>(summary.sent), static_cast<unsigned long long>(summary.received),
-        static_cast<unsigned long long>(summary.bad), summary.last_echo, summary.max_force,
+        "sent %llu poses and %llu hellos (%s), received %llu wrenches (%llu invalid), last echo %u, "
+        "max |F| %.3f N, mean pose-to-wrench time %.3f ms\n",
+        static_cast<unsigned long long>(summary.sent), static_cast<unsigned long long>(summary.hellos),
+        acknowledged ? "acknowledged" : "never acknowledged: the scene's limits applied",
+        static_cast<unsigned long long>(summary.received), static_cast<unsigned long long>(summary.bad),
+        summary.last_echo, summary.max_force,
         summary.received ? summary.rtt_sum / static_cast<double>(summary.received) * 1e3 : 0.0);
     return summary.received > 0 ? 0 : 1;
   } catch (const std::exception& e) {

@@ -31,6 +31,11 @@ inline CLI::Validator finite_range(double min, double max) {
 /// `99999999999999999999`, `0x10`) is refused naming the option, never wrapped around.
 CLI::Option* add_seed_option(CLI::App* sub, std::optional<uint64_t>& seed, const std::string& description);
 
+/// The --device help of the commands that run the servo loop (`extra`: their own devices first).
+std::string device_help(const std::string& extra = "");
+/// Adds `--device-profile FILE` (a hardware device's profile, docs/devices.md) to a subcommand.
+void add_device_profile_option(CLI::App* sub, std::string& profile);
+
 /// Adds `--spin-us` (ServoOptions::spin_us) to a subcommand that runs the servo loop.
 void add_spin_option(CLI::App* sub, double& spin_us);
 /// Adds `--no-standby` (ServoOptions::standby off) to a subcommand that runs the servo loop.

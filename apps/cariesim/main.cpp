@@ -6,11 +6,30 @@
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
+#include <ctime>
 #include <exception>
 #include <memory>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/safety.hpp"
 #include "commands.hpp"
+
+namespace {
+
+// A fatal signal (a crash on any thread, the viewer's included) or one that ends the program (Ctrl-C,
+// kill, a closed terminal) where the command has no handler of its own (`servo` and `device check`
+// shut down cleanly on their own): every force stops in the next servo cycle (ForceSafety), the servo
+// thread is given a few cycles to write the zero wrench, then the signal takes its default course
+// (the exit status, the core dump), as it did before the handler.
+extern "C" void on_fatal_signal(int signal) {
+  cariesim::request_force_stop();
+  const timespec pause{0, 5'000'000};  // 5 ms: five cycles at 1 kHz
+  nanosleep(&pause, nullptr);
+  std::signal(signal, SIG_DFL);
+  std::raise(signal);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // Every log line goes to stderr, so stdout carries only a command's output (`tree --json`, `servo`'s
@@ -21,6 +40,8 @@ int main(int argc, char** argv) {
   // writer reports (a recording's error, exit status 4), instead of SIGXFSZ ending the program with
   // nothing said and the record left open.
   std::signal(SIGXFSZ, SIG_IGN);
+  for (const int fatal : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGINT, SIGTERM, SIGHUP})
+    std::signal(fatal, on_fatal_signal);
   CLI::App app{"cariesim: 6-DoF haptic simulator for probing dental caries"};
   app.require_subcommand(0, 1);
   cariesim::cli::Registry registry;

@@ -24,6 +24,7 @@ constexpr int kNoDisplay = 4;
 struct RunArgs {
   std::string scene = "real-arch";
   std::string device = "mouse";
+  std::string device_profile;  // a hardware device's profile file
   double rate = 0.0;  // Hz; 0 = the scene's servo rate
   std::string record;
   bool overwrite = false;
@@ -51,6 +52,7 @@ int run_simulator(const RunArgs& args) {
   viewer::ViewerOptions options;
   options.scene = args.scene;
   options.device = args.device;
+  options.device_profile = args.device_profile;
   options.rate_hz = args.rate;
   options.record = args.record;
   options.overwrite = args.overwrite;
@@ -86,9 +88,8 @@ void register_run(CLI::App& app, Registry& registry) {
   CLI::App* sub = app.add_subcommand("run", "Open the simulator window (the default without a subcommand)");
   sub->add_option("scene,--scene", args->scene, "Built-in scene name or scene YAML file")
       ->capture_default_str();
-  sub->add_option("--device", args->device,
-                  "mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]")
-      ->capture_default_str();
+  sub->add_option("--device", args->device, device_help("mouse | "))->capture_default_str();
+  add_device_profile_option(sub, args->device_profile);
   sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")
       ->check(finite_range(1.0, 10000.0));
   auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");

@@ -12,6 +12,7 @@
 #include <string>
 #include <thread>
 
+#include "cariesim/device/haptic_device.hpp"
 #include "cariesim/device/udp_device.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -26,6 +27,7 @@ namespace {
 struct ServoArgs {
   std::string scene = "oral-cavity";
   std::string device = "null";
+  std::string device_profile;  // a hardware device's profile file
   double rate = 0.0;         // Hz; 0 = the scene's servo rate
   double duration = 0.0;     // s; 0 = until the device ends or Ctrl-C
   std::string record;        // SQLite file, optional
@@ -41,9 +43,16 @@ struct ServoArgs {
 // normally, but what was asked for was not all written (the committed prefix is a valid recording).
 constexpr int kExitRecordingFailed = 4;
 
+// s a hardware device may stay lost (unplugged, its service stopped) before the run ends.
+constexpr double kLostDevice = 1.0;
+
 // Set by SIGINT/SIGTERM/SIGHUP; the main thread polls it.
 volatile std::sig_atomic_t g_interrupted = 0;
-extern "C" void on_interrupt(int /*signal*/) { g_interrupted = 1; }
+// Every force stops in the next cycle (request_force_stop), before the session shuts down.
+extern "C" void on_interrupt(int /*signal*/) {
+  request_force_stop();
+  g_interrupted = 1;
+}
 
 // "|F|=... state depth" of the latest snapshot, once per second.
 void print_status(const ServoSnapshot& s) {
@@ -87,6 +96,15 @@ void print_report(Session& session) {
       std::fprintf(stderr, " %s=%llu", c.name, static_cast<unsigned long long>(c.value));
     std::fprintf(stderr, "\n");
   }
+  if (const auto* haptic = dynamic_cast<const HapticDevice*>(&device)) {
+    const HapticStatus st = haptic->status();
+    std::fprintf(stderr, "  %s %s: %s; calibration: %s; force %s; %s", st.hardware.backend.c_str(),
+                 st.hardware.model.c_str(), st.rendering().c_str(), st.calibration.message.c_str(),
+                 st.force_enabled ? "was enabled" : "never enabled", st.hardware.dof_out >= 6 ? "\n" : "");
+    if (st.hardware.dof_out < 6)
+      std::fprintf(stderr, "; torque dropped in %llu cycles (largest %.1f N.mm)\n",
+                   static_cast<unsigned long long>(st.torque_dropped), st.torque_dropped_max);
+  }
   if (const auto* udp = dynamic_cast<const UdpDevice*>(&device))
     std::fprintf(stderr, "  bridge threads: %s\n", udp->realtime_status().c_str());
   if (const Recorder* recorder = session.recorder()) {
@@ -106,6 +124,7 @@ int run_servo(const ServoArgs& args) {
   SessionOptions options;
   options.scene = args.scene;
   options.device = args.device;
+  options.device_profile = args.device_profile;
   options.rate_hz = args.rate;
   options.realtime = !args.no_realtime;
   options.spin_us = args.spin_us;
@@ -133,7 +152,11 @@ int run_servo(const ServoArgs& args) {
                  session.loop().realtime_status().c_str(), until.c_str());
   }
 
-  // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C.
+  // Watch the snapshots: a status line per second, the end of the path, the duration, Ctrl-C, a
+  // hardware device lost for longer than kLostDevice (its force is zero from the first cycle; the run
+  // and its record then end cleanly, saying why).
+  const auto* haptic = dynamic_cast<const HapticDevice*>(&session.device());
+  double lost_since = -1.0;
   const auto started = std::chrono::steady_clock::now();
   double next_status = 1.0;
   bool seen_valid = false;
@@ -150,6 +173,18 @@ int run_servo(const ServoArgs& args) {
       seen_valid = seen_valid || snapshot.device.valid;
     }
     if (args.duration > 0.0 && elapsed >= args.duration) break;
+    if (haptic != nullptr) {
+      const uint32_t faults = haptic->status().faults;
+      if ((faults & kHardwareLost) == 0) {
+        lost_since = -1.0;
+      } else if (lost_since < 0.0) {
+        lost_since = elapsed;
+      } else if (elapsed - lost_since > kLostDevice) {
+        std::fprintf(stderr, "servo: the device was lost (%s); ending the run\n",
+                     describe_hardware_faults(faults).c_str());
+        break;
+      }
+    }
   }
   // The loop and the device stop before the recorder, which then drains and closes.
   session.stop();
@@ -165,6 +200,18 @@ int run_servo(const ServoArgs& args) {
 }
 
 }  // namespace
+
+std::string device_help(const std::string& extra) {
+  return extra +
+         "null | scripted:FILE[:loop] | replay:FILE[:loop] | udp:PORT[:HOST] | touch[:NAME] | "
+         "fd[:INDEX|SERIAL] | haply[:URL] (docs/devices.md)";
+}
+
+void add_device_profile_option(CLI::App* sub, std::string& profile) {
+  sub->add_option("--device-profile", profile,
+                  "A hardware device's profile (YAML: frame mapping, scale, stylus offset, buttons; "
+                  "docs/devices.md); default: the backend's built-in one");
+}
 
 void add_spin_option(CLI::App* sub, double& spin_us) {
   sub->add_option("--spin-us", spin_us,
@@ -184,9 +231,8 @@ void register_servo(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<ServoArgs>();
   CLI::App* sub = app.add_subcommand("servo", "Run the real-time servo loop with a device, without a window");
   sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
-  sub->add_option("--device", args->device,
-                  "null, scripted:FILE[:loop], replay:FILE[:loop] or udp:PORT[:HOST]")
-      ->capture_default_str();
+  sub->add_option("--device", args->device, device_help())->capture_default_str();
+  add_device_profile_option(sub, args->device_profile);
   sub->add_option("--rate", args->rate, "Servo rate in Hz, up to 10000 (default: the scene's)")
       ->check(finite_range(1.0, 10000.0));
   sub->add_option("--duration", args->duration, "Seconds to run (default: until a path ends, or Ctrl-C)")

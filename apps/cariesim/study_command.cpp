@@ -22,6 +22,7 @@ struct StudyRunArgs {
   std::string study;
   std::string participant;
   std::string device = "null";
+  std::string device_profile;  // a hardware device's profile file
   std::string answers;
   std::string out;
   std::string station;
@@ -82,6 +83,7 @@ int run_study(const StudyRunArgs& args) {
   training::StudyRun run(study, options);
   training::HeadlessOptions headless;
   headless.device = args.device;
+  headless.device_profile = args.device_profile;
   headless.duration = args.duration;
   if (!args.quiet) headless.build.progress = progress_printer();
   headless.on_trial = [&](const training::TrialResult& r) {
@@ -110,8 +112,8 @@ void register_study(CLI::App& app, Registry& registry) {
   auto* run = study->add_subcommand("run", "Run a whole study with a scripted device and an answers file");
   run->add_option("study", args->study, "a built-in study name or a study YAML file")->required();
   run->add_option("--participant", args->participant, "participant id (letters, digits, - _ .)")->required();
-  run->add_option("--device", args->device, "device of every trial: null, scripted:FILE, replay:FILE")
-      ->capture_default_str();
+  run->add_option("--device", args->device, "device of every trial: " + device_help())->capture_default_str();
+  add_device_profile_option(run, args->device_profile);
   run->add_option("--answers", args->answers, "answers file (YAML, docs/training.md)")->required();
   run->add_option("--out", args->out, "study database (SQLite), created or appended to")->required();
   run->add_option("--station", args->station, "station name in the database (default: the host name)");

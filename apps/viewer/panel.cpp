@@ -74,6 +74,7 @@ void ViewerApp::draw_panel() {
     // A trainee: the course and its study, the camera; the instructor's passphrase field.
     panel_trainee();
     if (course_ && section("Study")) panel_study();
+    if (session_ && session_->haptic != nullptr && section("Device")) panel_device();
     if (session_ && section("View")) panel_camera();
     panel_instructor();
   } else {
@@ -82,6 +83,7 @@ void ViewerApp::draw_panel() {
     // A course's scenes are its study's: no scene picker.
     if (!course_) panel_scene();
     if (session_) {
+      if (session_->haptic != nullptr && section("Device")) panel_device();
       panel_status();
       panel_plots();
       panel_view();
@@ -155,6 +157,22 @@ void ViewerApp::panel_scene() {
   }
 }
 
+void ViewerApp::panel_device() {
+  // A hardware device: what it is, its calibration (and what the operator must do), whether its
+  // force is on, the clutch, the loop's rate, what it cannot render. Nothing here depends on the case.
+  const HapticStatus st = session_->haptic->status();
+  const ImVec4 warn(1.0f, 0.7f, 0.3f, 1.0f);
+  ImGui::TextWrapped("%s %s", st.hardware.model.c_str(), st.hardware.serial.c_str());
+  if (st.calibration.readiness == Readiness::Ready)
+    ImGui::Text("calibrated");
+  else
+    ImGui::TextColored(warn, "calibration: %s", st.calibration.message.c_str());
+  ImGui::Text("force %s   rate %.0f Hz", st.force_enabled ? "on" : "off (waiting)", snapshot_.rate_hz);
+  if (st.clutched) ImGui::TextColored(warn, "CLUTCH held: the tool stays, move your hand");
+  if (st.faults != 0) ImGui::TextColored(warn, "device: %s", describe_hardware_faults(st.faults).c_str());
+  ImGui::TextWrapped("%s", st.rendering().c_str());
+}
+
 void ViewerApp::panel_status() {
   if (!section("Status")) return;
   const StepOutput& out = snapshot_.out;
@@ -193,7 +211,8 @@ void ViewerApp::panel_status() {
                                                                 {kSafetyStale, "stale input"},
                                                                 {kSafetyNonFinite, "non-finite"},
                                                                 {kSafetyInvalidInput, "no input"},
-                                                                {kSafetyJump, "jump"}})
+                                                                {kSafetyJump, "jump"},
+                                                                {kSafetyStopped, "stopped"}})
                                 .c_str());
   // The servo loop.
   ImGui::Separator();
@@ -447,6 +466,21 @@ std::string ViewerApp::status_json(int width, int height) const {
   // The mode: a trainee's window (locked), the instructor's unlocked one, or the ordinary window.
   json.field("mode", locked() ? "trainee" : trainee_ ? "instructor" : "full");
   json.field("device", options_.device);
+  if (session_ && session_->haptic != nullptr) {
+    // A hardware device's state (nothing in it depends on the case).
+    const HapticStatus st = session_->haptic->status();
+    json.key("hardware").begin_object();
+    json.field("model", st.hardware.model);
+    json.field("calibrated", st.calibration.readiness == Readiness::Ready);
+    json.field("calibration", st.calibration.message);
+    json.field("force_enabled", st.force_enabled);
+    json.field("clutch", st.clutched);
+    json.field("faults", describe_hardware_faults(st.faults));
+    json.field("rendering", st.rendering());
+    json.field("torque_dropped_cycles", static_cast<long long>(st.torque_dropped));
+    json.field("torque_dropped_max_nmm", st.torque_dropped_max);
+    json.end_object();
+  }
   json.field("t", snapshot_.t);
   json.key("panel_sections").begin_array();
   for (const std::string& name : sections_) json.value(name);

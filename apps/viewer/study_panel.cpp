@@ -196,12 +196,14 @@ void ViewerApp::submit_shapes() {
   end_trial();
 }
 
-void ViewerApp::study_mark() {
-  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the chosen grade and
-  // whether the tool touched anything then (a mark in the air detects nothing).
+void ViewerApp::study_mark(std::optional<training::Grade> graded) {
+  // A diagnosis mark at the graphic tool's tip (the tool frame's origin), with the given grade (a
+  // device's mark button) or the chosen one, and whether the tool touched anything then (a mark in
+  // the air detects nothing).
   if (!trial_live() || !have_snapshot_ || run_->setup().kind != training::StudyKind::Diagnosis) return;
   if (run_->answers().ended_at) return;
-  const training::Grade grade = grade_choice_ == 0 ? training::Grade::Mild : training::Grade::Severe;
+  const training::Grade grade =
+      graded.value_or(grade_choice_ == 0 ? training::Grade::Mild : training::Grade::Severe);
   try {
     run_->mark(snapshot_.out.graphic.p, grade, snapshot_.t, snapshot_.out.contacts > 0);
   } catch (const Error& e) {
@@ -213,10 +215,24 @@ void ViewerApp::study_mark() {
 void ViewerApp::study_frame() {
   if (!trial_live() || !have_snapshot_) return;
   const training::TrialSetup& setup = run_->setup();
-  // A device button pressed (any, rising edge) marks in a diagnosis case.
+  // A device's buttons, on their rising edge: a hardware device's profile maps them to actions (mark
+  // mild, mark severe, end case; the clutch is the device's own); a device without a map (the UDP
+  // bridge, a recording) marks with the chosen grade on any button.
   const uint32_t buttons = snapshot_.device.buttons;
-  if ((buttons & ~previous_buttons_) != 0) study_mark();
+  const uint32_t actions = snapshot_.device.actions;
+  const uint32_t pressed = actions & ~previous_actions_;
+  previous_actions_ = actions;
+  const bool any_button = (buttons & ~previous_buttons_) != 0;
   previous_buttons_ = buttons;
+  if ((pressed & kActionMarkMild) != 0) study_mark(training::Grade::Mild);
+  if ((pressed & kActionMarkSevere) != 0) study_mark(training::Grade::Severe);
+  if (session_->haptic == nullptr && any_button) study_mark();
+  if ((pressed & kActionEndCase) != 0 && setup.kind == training::StudyKind::Diagnosis &&
+      !run_->answers().ended_at) {
+    run_->end_case(snapshot_.t);
+    end_trial();
+    return;
+  }
   if (snapshot_.device.valid) device_seen_valid_ = true;
   // The answers file plays the participant.
   if (answers_ && !answers_->trials.empty()) {

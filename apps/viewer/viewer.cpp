@@ -226,6 +226,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   SessionOptions session_options;
   session_options.scene = source;
   session_options.device = options_.device;
+  session_options.device_profile = options_.device_profile;
   session_options.rate_hz = options_.rate_hz;
   session_options.realtime = options_.realtime;
   session_options.spin_us = options_.spin_us;
@@ -257,6 +258,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     s->run = std::make_unique<Session>(*s->model, session_options);
   s->mouse = dynamic_cast<MouseDevice*>(&s->run->device());
   s->replay = dynamic_cast<ReplayDevice*>(&s->run->device());
+  s->haptic = dynamic_cast<HapticDevice*>(&s->run->device());
   s->view = std::make_unique<SceneView>(*s->model);
 
   // The view: framed on a new scene, the mouse target at the tool's home.
@@ -277,6 +279,7 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   // named, the device's buttons as they are.
   if (trial && run_) {
     previous_buttons_ = 0;
+    previous_actions_ = 0;
     device_seen_valid_ = false;
     answer_mark_next_ = 0;
     shape_choice_.assign(run_->setup().cubes.size(), -1);

@@ -13,6 +13,7 @@ namespace cariesim::viewer {
 
 struct ViewerOptions {
   std::string scene = "real-arch";  ///< built-in scene name or scene YAML file
+  std::string device_profile;       ///< a hardware device's profile file (docs/devices.md); empty: default
   std::string device = "mouse";     ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
   double rate_hz = 0.0;             ///< Hz, servo rate; 0: the scene's
   std::string record;               ///< SQLite file for the session record; empty: none

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "camera.hpp"
+#include "cariesim/device/haptic_device.hpp"
 #include "cariesim/record/replay.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
@@ -47,6 +48,7 @@ struct SceneSession {
   std::unique_ptr<Session> run;    ///< device, servo loop and record
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
   ReplayDevice* replay = nullptr;  ///< the device when it is a replay
+  HapticDevice* haptic = nullptr;  ///< the device when it is a hardware device (touch, fd, haply)
   std::unique_ptr<SceneView> view;
   ~SceneSession();
   /// Stops the servo loop, then the recorder (idempotent).
@@ -174,6 +176,7 @@ class ViewerApp {
   std::vector<int> shape_choice_;                // per cube: index into shape_choices, -1: not named
   int grade_choice_ = 0;                         // the next mark's grade: 0 mild, 1 severe
   uint32_t previous_buttons_ = 0;                // device buttons in the last snapshot
+  uint32_t previous_actions_ = 0;                // device actions (DeviceAction) in the last snapshot
   bool device_seen_valid_ = false;               // the trial's device gave a valid reading
   std::optional<training::ScriptedAnswers> answers_;
   std::size_t answer_mark_next_ = 0;
@@ -188,7 +191,8 @@ class ViewerApp {
   void begin_trial();
   void end_trial();
   void study_frame();
-  void study_mark();
+  void panel_device();
+  void study_mark(std::optional<training::Grade> grade = std::nullopt);
   void reset_tuning_sliders();
   void confirm_tuning();
   void submit_shapes();

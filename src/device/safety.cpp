@@ -1,6 +1,7 @@
 #include "cariesim/device/safety.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "cariesim/device/input_guard.hpp"
@@ -8,6 +9,10 @@
 namespace cariesim {
 
 namespace {
+
+// The process-wide stop (request_force_stop); lock-free, so a signal handler may set it.
+std::atomic<bool> g_force_stop{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
 
 // A negative value becomes 0 (the safe side), a non-finite one the fallback.
 double sane(double value, double fallback) { return std::isfinite(value) ? std::max(value, 0.0) : fallback; }
@@ -23,6 +28,10 @@ uint32_t safety_flags_of(uint32_t input_faults) {
 }
 
 }  // namespace
+
+void request_force_stop() noexcept { g_force_stop.store(true, std::memory_order_release); }
+bool force_stop_requested() noexcept { return g_force_stop.load(std::memory_order_acquire); }
+void clear_force_stop() noexcept { g_force_stop.store(false, std::memory_order_release); }
 
 ForceSafety::ForceSafety(const SafetyParams& params) : params_(params) {
   const SafetyParams defaults;
@@ -43,6 +52,7 @@ void ForceSafety::filter(Vec3& force, Vec3& torque, uint32_t input_faults, doubl
   // Faults: the guard's verdict on the reading, a non-finite wrench or time.
   flags_ = safety_flags_of(input_faults);
   if (!force.allFinite() || !torque.allFinite() || !std::isfinite(now)) flags_ |= kSafetyNonFinite;
+  if (force_stop_requested()) flags_ |= kSafetyStopped;
   if ((flags_ & kSafetyFaultMask) != 0) {
     force.setZero();
     torque.setZero();

@@ -24,6 +24,7 @@ std::unique_ptr<Device> device_from_spec(const Model& model, const SessionOption
   device.limits = model.defaults.limits;
   device.input = model.settings.input;
   device.realtime = options.realtime;
+  if (!options.device_profile.empty()) device.profile = options.device_profile;
   return make_device(options.device, device);
 }
 

@@ -162,6 +162,7 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
       SessionOptions session_options;
       session_options.scene = setup.scene_origin;
       session_options.device = entry.device.empty() ? options.device : entry.device;
+      session_options.device_profile = options.device_profile;
       session_options.realtime = options.realtime;
       session_options.record = run.recording_path().string();
       if (run.study().scoring.soft_tissue_threshold)

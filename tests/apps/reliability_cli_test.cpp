@@ -12,8 +12,9 @@
 #include <thread>
 
 #include "apps/apps_support.hpp"
-#include "support/command.hpp"
+#include "cariesim/device/safety.hpp"
 #include "cariesim/record/recorder.hpp"
+#include "support/command.hpp"
 #include "support/files.hpp"
 
 namespace cariesim {
@@ -158,6 +159,52 @@ TEST_F(Reliability, ServoClosesTheRecordOnSighup) {
   const Recording rec = load_recording(db);
   EXPECT_FALSE(rec.info.ended_at.empty());
   EXPECT_GT(rec.samples.size(), 100u);
+}
+
+// SIGTERM to a servo run pressing on the block: every force stops in the next cycle (the handler
+// asks ForceSafety to stop, kSafetyStopped) before the session shuts down and closes the record.
+TEST_F(Reliability, SigtermZeroesTheForceBeforeTheRunEnds) {
+  const fs::path db = dir_ / "term.db";
+  const std::string path =
+      (fs::path(CARIESIM_SOURCE_DIR) / "scenes/trajectories/viewer-touch-friction-block.csv").string();
+  test::CommandOutput r;
+  std::thread servo([&] {
+    r = test::run_command({CARIESIM_EXE, "servo", "--scene", "friction-block", "--device",
+                           "scripted:" + path + ":loop", "--duration", "60", "--quiet", "--no-realtime",
+                           "--record", db.string()});
+  });
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  std::error_code ec;
+  while (!(fs::exists(db, ec) && fs::file_size(db, ec) > 0) && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::this_thread::sleep_for(std::chrono::seconds(6));  // into the path's contact
+  const pid_t pid = test::find_process(CARIESIM_EXE, db.string());
+  EXPECT_GT(pid, 0) << "servo is not running";
+  if (pid > 0) ::kill(pid, SIGTERM);
+  servo.join();
+  EXPECT_EQ(r.status, 0) << r.how << "\n" << r.err;
+  const Recording rec = load_recording(db);
+  ASSERT_GT(rec.samples.size(), 100u);
+  // The samples after the stop: flagged, with no force; and the force was not zero before.
+  std::size_t stopped = 0, pushed = 0;
+  for (const ServoSample& s : rec.samples) {
+    if ((s.safety_flags & kSafetyStopped) != 0) {
+      ++stopped;
+      EXPECT_EQ(s.force, Vec3::Zero()) << "t=" << s.t;
+    } else if (s.force.norm() > 0.05) {
+      ++pushed;
+    }
+  }
+  EXPECT_GT(stopped, 0u);
+  EXPECT_GT(pushed, 0u) << "the path never pressed on the block";
+  // Once stopped, every later sample is stopped too.
+  bool seen = false;
+  for (const ServoSample& s : rec.samples) {
+    if ((s.safety_flags & kSafetyStopped) != 0) seen = true;
+    if (seen) {
+      EXPECT_NE(s.safety_flags & kSafetyStopped, 0u) << "t=" << s.t;
+    }
+  }
 }
 
 // Item 8: replaying a recording on another scene gave no warning. (The scene hash and parameters of

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -369,6 +371,30 @@ TEST(DeviceProfile, BadFieldsAreNamedWithTheirPlace) {
   EXPECT_NE(message("buttons: {99: clutch}\n").find("buttons"), std::string::npos);
   EXPECT_NE(message("rotation: {axis: [0, 0, 0], angle: 3}\n").find("rotation.axis"), std::string::npos);
   EXPECT_NE(message("stylus_offset: [0, .nan, 0]\n").find("stylus_offset"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cariesim
+
+namespace cariesim {
+namespace {
+
+TEST(DeviceProfile, TheExampleInTheDocsIsAValidProfile) {
+  // docs/devices.md "The profile": its YAML block parses, with every key it shows.
+  std::ifstream in(std::string(CARIESIM_SOURCE_DIR) + "/docs/devices.md");
+  ASSERT_TRUE(in) << "docs/devices.md";
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t section = text.find("## The profile");
+  ASSERT_NE(section, std::string::npos);
+  const std::size_t begin = text.find("```yaml\n", section);
+  ASSERT_NE(begin, std::string::npos);
+  const std::size_t end = text.find("```", begin + 8);
+  const std::string yaml = text.substr(begin + 8, end - begin - 8);
+  const DeviceProfile p = parse_device_profile(yaml, "docs/devices.md");
+  EXPECT_DOUBLE_EQ(p.scale, 0.5);
+  ASSERT_TRUE(p.translation.has_value());
+  ASSERT_TRUE(p.fixed_orientation.has_value());
+  EXPECT_EQ(profile_actions(p, 0b1111), kActionClutch | kActionMarkMild | kActionMarkSevere | kActionEndCase);
 }
 
 }  // namespace

@@ -168,3 +168,34 @@ TEST(ForceSafety, ResetRestartsTheRamp) {
 
 }  // namespace
 }  // namespace cariesim
+
+namespace cariesim {
+namespace {
+
+TEST(ForceStop, ARequestedStopZeroesEveryLoopsForceFromTheNextCycleUntilCleared) {
+  ForceSafety a, b;
+  SafetyParams no_ramp;
+  no_ramp.ramp_time = 0.0;
+  ForceSafety c(no_ramp);
+  Vec3 f(1, 2, 3), t(4, 5, 6);
+  c.filter(f, t, 0, 0.0);
+  ASSERT_EQ(f, Vec3(1, 2, 3));
+  request_force_stop();
+  EXPECT_TRUE(force_stop_requested());
+  for (ForceSafety* s : {&a, &b, &c}) {
+    Vec3 force(1, 2, 3), torque(4, 5, 6);
+    s->filter(force, torque, 0, 1.0);
+    EXPECT_EQ(force, Vec3::Zero());
+    EXPECT_EQ(torque, Vec3::Zero());
+    EXPECT_NE(s->flags() & kSafetyStopped, 0u);
+    EXPECT_NE(s->flags() & kSafetyFaultMask, 0u);
+  }
+  clear_force_stop();
+  f = Vec3(1, 2, 3);
+  c.filter(f, t, 0, 2.0);
+  EXPECT_EQ(c.flags() & kSafetyStopped, 0u);
+  EXPECT_EQ(f, Vec3(1, 2, 3));  // no ramp configured
+}
+
+}  // namespace
+}  // namespace cariesim

@@ -28,16 +28,27 @@ struct SafetyParams {
 /// it. Bits 0-1 are unused: the step's output stage is the one clamp, and its flags say so
 /// (kFlagForceClamped, kFlagTorqueClamped).
 enum SafetyFlag : uint32_t {
-  kSafetyRamping = 1u << 2,        ///< ramping in after start or after a fault
-  kSafetyStale = 1u << 3,          ///< the reading is older than InputLimits::stale_after; zeroed
-  kSafetyNonFinite = 1u << 4,      ///< the reading or the wrench is not finite; zeroed
-  kSafetyInvalidInput = 1u << 5,   ///< the reading is marked invalid (none yet, or ended); zeroed
-  kSafetyJump = 1u << 6,           ///< the reading jumped (turned) further than InputLimits::max_jump
-                                   ///< (max_jump_rotation); zeroed
+  kSafetyRamping = 1u << 2,       ///< ramping in after start or after a fault
+  kSafetyStale = 1u << 3,         ///< the reading is older than InputLimits::stale_after; zeroed
+  kSafetyNonFinite = 1u << 4,     ///< the reading or the wrench is not finite; zeroed
+  kSafetyInvalidInput = 1u << 5,  ///< the reading is marked invalid (none yet, or ended); zeroed
+  kSafetyJump = 1u << 6,          ///< the reading jumped (turned) further than InputLimits::max_jump
+                                  ///< (max_jump_rotation); zeroed
+  kSafetyStopped = 1u << 7,       ///< the process asked every force to stop (request_force_stop); zeroed
 };
 /// The flags that mean the force was zeroed.
 inline constexpr uint32_t kSafetyFaultMask =
-    kSafetyStale | kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump;
+    kSafetyStale | kSafetyNonFinite | kSafetyInvalidInput | kSafetyJump | kSafetyStopped;
+
+/// Stops every force of the process: from the next servo cycle on, every ForceSafety zeroes its
+/// wrench (kSafetyStopped), whatever the other threads do. Async-signal-safe (one lock-free atomic):
+/// the programs call it from their SIGINT/SIGTERM handlers and on a fatal signal, so a device renders
+/// no force while the program shuts down or dies.
+void request_force_stop() noexcept;
+/// True once request_force_stop was called (until clear_force_stop).
+bool force_stop_requested() noexcept;
+/// Lets forces through again (a test, or a program that cancelled its shutdown).
+void clear_force_stop() noexcept;
 
 /// The safety filter of one servo loop (servo thread only, apart from the const accessors).
 class ForceSafety {

@@ -39,6 +39,7 @@ namespace cariesim {
 struct SessionOptions {
   std::string scene;            ///< the scene name or file the model was built from (for the record)
   std::string device = "null";  ///< device spec (device/factory.hpp); for a ready-made device, its name
+  std::string device_profile;   ///< a hardware device's profile file (device/profile.hpp); empty: the default
   double rate_hz = 0.0;         ///< Hz, the servo rate; 0: the model's (Model::servo_rate)
   bool realtime = true;         ///< ask for SCHED_FIFO (the servo thread, the UDP bridge's threads)
   double spin_us = kDefaultSpinUs;  ///< µs the servo thread polls before each deadline (ServoOptions)

@@ -68,6 +68,7 @@ ScriptedAnswers load_answers(const std::filesystem::path& file);
 /// How a headless study runs.
 struct HeadlessOptions {
   std::string device = "null";  ///< the device spec of every trial (scripted:FILE), unless its entry has one
+  std::string device_profile;   ///< a hardware device's profile file (docs/devices.md); empty: default
   double duration = 0.0;        ///< s of servo time per trial when the device does not end; 0: 1 s
   bool realtime = false;        ///< ask for SCHED_FIFO
   BuildOptions build;           ///< how to build each trial's scene
