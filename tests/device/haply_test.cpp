@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <functional>
 #include <thread>
 
@@ -337,6 +338,48 @@ TEST(HaplyHapticDevice, MapsRendersAndSwitchesOff) {
       servo.until(press, [&](const DeviceState&) { return (service.last_force() - press).norm() < 1e-9; }));
   device->stop();
   EXPECT_EQ(service.last_force(), Vec3::Zero());
+}
+
+// CARIESIM_HAPLY_URL set for one test, unset after it.
+class HaplyUrlVariable : public ::testing::Test {
+ protected:
+  void set(const std::string& url) { ::setenv("CARIESIM_HAPLY_URL", url.c_str(), 1); }
+  void TearDown() override { ::unsetenv("CARIESIM_HAPLY_URL"); }
+};
+
+TEST_F(HaplyUrlVariable, SurveyListsTheServiceAndItsInverse3) {
+  test::InverseService service;
+  set(service.url());
+  HardwareSurvey s = survey_haply();
+  EXPECT_EQ(s.backend, "haply");
+  EXPECT_EQ(s.version, "3.2.1.0");
+  EXPECT_EQ(s.sdk.env_var, "CARIESIM_HAPLY_URL");
+  ASSERT_TRUE(s.sdk.path.has_value());
+  EXPECT_THAT(*s.sdk.path, HasSubstr(service.url().substr(0, service.url().find(','))));
+  ASSERT_EQ(s.devices.size(), 1u);
+  EXPECT_EQ(s.devices[0].serial, "049D");
+  EXPECT_EQ(s.devices[0].dof_in, 6);
+  EXPECT_TRUE(s.problem.empty()) << s.problem;
+  // A bare `haply` goes where the variable says.
+  auto device = make_haply_device("");
+  device->open();
+  EXPECT_EQ(device->info().serial, "049D");
+  device->close();
+
+  service.set_inverse3(false);
+  s = survey_haply();
+  EXPECT_TRUE(s.devices.empty());
+  EXPECT_EQ(s.problem, "no Inverse3 attached to the service");
+  service.set_version("3.0.7.0");
+  EXPECT_THAT(survey_haply().problem, HasSubstr("3.0.7.0 is too old"));
+  service.go_away();
+  s = survey_haply();
+  EXPECT_FALSE(s.sdk.path.has_value());
+  ASSERT_EQ(s.sdk.tried.size(), 1u);
+  EXPECT_THAT(s.sdk.tried[0].second, HasSubstr("connection refused"));
+  EXPECT_THAT(s.install, HasSubstr("haply-inverse-service"));
+  set("localhost:1");
+  EXPECT_THAT(survey_haply().problem, HasSubstr("expected http://HOST:PORT"));
 }
 
 TEST(HaplyDevice, ServoThreadCallsAllocateNothing) {

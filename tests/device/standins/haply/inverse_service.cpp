@@ -244,6 +244,8 @@ struct InverseService::Impl {
 InverseService::InverseService(InverseServiceOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->options = std::move(options);
   impl_->inverse3 = impl_->options.inverse3;
+  impl_->http_port = impl_->options.http_port;
+  impl_->ws_port = impl_->options.ws_port;
   impl_->x = Vec3(0.0, 0.1, 0.1);  // m, in front of the base, above the table
   impl_->start_listening();
   impl_->thread = std::thread([this] {

@@ -19,16 +19,19 @@ struct InverseServiceOptions {
   std::string version = "3.2.1.0";  ///< `/version`'s project_version
   std::string device_id = "049D";
   std::string grip_id = "A1B2";
-  bool inverse3 = true;     ///< an Inverse3 is attached
-  bool grip = true;         ///< a wireless VerseGrip is attached
-  double rate_hz = 1000.0;  ///< Hz, the simulated device's rate: one answer per tick at most
-  double mass = 0.2;        ///< kg, the cursor's (and hand's) moving mass
-  double damping = 3.0;     ///< N·s/m, viscous damping of the cursor
+  bool inverse3 = true;          ///< an Inverse3 is attached
+  bool grip = true;              ///< a wireless VerseGrip is attached
+  double rate_hz = 1000.0;       ///< Hz, the simulated device's rate: one answer per tick at most
+  double mass = 0.2;             ///< kg, the cursor's (and hand's) moving mass
+  double damping = 3.0;          ///< N·s/m, viscous damping of the cursor
+  unsigned short http_port = 0;  ///< 0: any free port
+  unsigned short ws_port = 0;    ///< 0: any free port
 };
 
 class InverseService {
  public:
-  /// Listens on 127.0.0.1 at free ports (HTTP and WebSocket) and serves on a thread of its own.
+  /// Listens on 127.0.0.1 (HTTP and WebSocket, at the options' ports or free ones) and serves on a
+  /// thread of its own.
   explicit InverseService(InverseServiceOptions options = {});
   ~InverseService();
   InverseService(const InverseService&) = delete;
