@@ -197,11 +197,11 @@ void BM_ReplayFirstPose(benchmark::State& state) {
   for (auto _ : state) {
     const double before = resident_kb();
     const auto start = Clock::now();
-    cariesim::ReplayDevice replay(file, false);
-    benchmark::DoNotOptimize(replay.read(0.0).pose.p.x());
+    const auto replay = cariesim::make_replay_device(file, false);
+    benchmark::DoNotOptimize(replay->read(0.0).pose.p.x());
     state.SetIterationTime(std::chrono::duration<double>(Clock::now() - start).count());
     growth_kb = resident_kb() - before;
-    held = replay.max_buffered_samples();
+    held = replay->max_buffered_samples();
   }
   state.counters["file_mb"] = static_cast<double>(fs::file_size(file)) / 1e6;
   state.counters["rss_growth_mb"] = growth_kb / 1024.0;

@@ -2,8 +2,9 @@
 # public headers they include, computed here. Nothing else of include/cariesim/ is installed.
 
 # What users call, under include/: the scene and the model builder, the model, the step and its
-# running parameters, the session and the servo loop, the devices and the device factory, the
-# recorder and the replay device, training's run, study and report; and the error every call throws.
+# running parameters, the session and the servo loop, the devices (the replay device among them) and
+# the device factory, the recorder and a recording's replay, training's run, study and report; and
+# the error every call throws.
 set(CARIESIM_PUBLIC_HEADERS
   cariesim/common/error.hpp
   cariesim/scene/scene.hpp
@@ -18,6 +19,7 @@ set(CARIESIM_PUBLIC_HEADERS
   cariesim/device/device.hpp
   cariesim/device/devices.hpp
   cariesim/device/udp_device.hpp
+  cariesim/device/replay.hpp
   cariesim/record/recorder.hpp
   cariesim/record/replay.hpp
   cariesim/training/run.hpp

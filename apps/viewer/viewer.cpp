@@ -18,6 +18,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/factory.hpp"
+#include "cariesim/record/replay.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/training/course.hpp"
 #include "screenshot.hpp"

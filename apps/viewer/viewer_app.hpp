@@ -16,7 +16,7 @@
 
 #include "camera.hpp"
 #include "cariesim/device/haptic_device.hpp"
-#include "cariesim/record/replay.hpp"
+#include "cariesim/device/replay.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/servo/session.hpp"
@@ -47,7 +47,7 @@ struct SceneSession {
   std::unique_ptr<Model> model;
   std::unique_ptr<Session> run;    ///< device, servo loop and record
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
-  ReplayDevice* replay = nullptr;  ///< the device when it is a replay
+  ReplayDevice* replay = nullptr;  ///< the device when it is a replay (device/replay.hpp)
   HapticDevice* haptic = nullptr;  ///< the device when it is a hardware device (touch, fd, haply)
   std::unique_ptr<SceneView> view;
   ~SceneSession();

@@ -242,8 +242,7 @@ void ReplyBudget::reset() {
   received_.store(0, std::memory_order_relaxed);
   last_received_ns_.store(std::numeric_limits<int64_t>::min(), std::memory_order_relaxed);
   sent_ = 0;
-  any_sent_ = false;
-  last_echo_ = 0;
+  last_echo_.reset();
 }
 
 void ReplyBudget::received(int64_t now_ns) {
@@ -255,11 +254,10 @@ void ReplyBudget::received(int64_t now_ns) {
 bool ReplyBudget::take(int64_t now_ns, uint32_t echo) {
   // A pose not answered yet, no more wrenches than packets, the last packet within the window.
   const uint64_t received = received_.load(std::memory_order_acquire);
-  if (sent_ >= received || (any_sent_ && echo == last_echo_)) return false;
+  if (sent_ >= received || last_echo_ == echo) return false;
   const int64_t last = last_received_ns_.load(std::memory_order_relaxed);
   if (now_ns - last > window_ns_) return false;
   ++sent_;
-  any_sent_ = true;
   last_echo_ = echo;
   return true;
 }

@@ -111,7 +111,7 @@ Session::Session(const Model& model, std::unique_ptr<Device> device, const Sessi
   info_.started_at = utc_now_iso8601();
 
   // A replayed recording made on another scene: its poses meet other geometry.
-  if (const auto* replay = dynamic_cast<const ReplayDevice*>(device_.get())) {
+  if (const RecordingSource* replay = replayed_recording(*device_)) {
     const SessionInfo& recorded = replay->session();
     if (recorded.scene_hash != model.scene_hash)
       warning_ = "the replayed recording was made on scene '" + recorded.scene + "' (hash " +

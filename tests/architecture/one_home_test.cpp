@@ -1,7 +1,7 @@
 // One home per concept (docs/architecture.md "One home per concept"), enforced on the source tree:
 // the step's materials are declared once, in the render module; one rule says what is rigid; the
 // penetration state is tested through one predicate; the record reaches the step only through its codes
-// (render/interaction.hpp). A failure names the file and the line.
+// (render/interaction.hpp); every Device lives in device/. A failure names the file and the line.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -159,6 +159,26 @@ TEST(OneHome, PosesAreBlendedOnceAndDevicesMadeInDevice) {
   EXPECT_TRUE(fs::is_regular_file(fs::path(CARIESIM_SOURCE_DIR) / "src/device/factory.cpp"));
 }
 
+// A class of the library that is a Device (derives from it).
+const std::regex& device_class() {
+  static const std::regex r(R"((class|struct)\s+\w+(\s+final)?\s*:\s*(public\s+)?Device\b)");
+  return r;
+}
+
+// Every Device of the library lives in device/: a module above adds a backend through a source or a
+// maker it registers (the record module's recording source for the replay device), not a device of
+// its own. The viewer's mouse (apps/) is the application's.
+TEST(OneHome, EveryDeviceLivesInDevice) {
+  std::vector<std::string> elsewhere;
+  for (const std::string& found : occurrences(device_class(), {"include/cariesim", "src"}, {}))
+    if (found.rfind("include/cariesim/device/", 0) != 0 && found.rfind("src/device/", 0) != 0)
+      elsewhere.push_back(found);
+  EXPECT_TRUE(elsewhere.empty()) << lines(elsewhere);
+  const std::vector<std::string> in_device = occurrences(device_class(), {"include/cariesim/device"}, {});
+  EXPECT_NE(lines(in_device).find("class ReplayDevice : public Device"), std::string::npos)
+      << lines(in_device);
+}
+
 TEST(OneHome, TheCheckersFindWhatTheyLookFor) {
   // The patterns themselves, on the forms they must catch (a wrong pattern would pass vacuously).
   const std::regex& written_out = penetration_written_out();
@@ -183,6 +203,10 @@ TEST(OneHome, TheCheckersFindWhatTheyLookFor) {
   EXPECT_TRUE(std::regex_search("struct ObjectMaterialDesc {", declaration));
   EXPECT_TRUE(std::regex_search("enum class Tissue : uint8_t {", declaration));
   EXPECT_FALSE(std::regex_search("struct MaterialTable {", declaration));
+  EXPECT_TRUE(std::regex_search("class ReplayDevice : public Device {", device_class()));
+  EXPECT_TRUE(std::regex_search("class MouseDevice final : public Device {", device_class()));
+  EXPECT_FALSE(std::regex_search("struct DeviceOptions {", device_class()));
+  EXPECT_FALSE(std::regex_search("class UdpDevice : public DeviceBase {", device_class()));
 }
 
 }  // namespace

@@ -128,9 +128,9 @@ TEST_F(Inbox, AHelloStartsANewSession) {
   EXPECT_EQ(inbox.counters().sessions, 2u);
 }
 
-// Issue #14 item 6: one packet whose client time is 0.2 s ahead used to lower the clock offset, so
-// every following packet looked 0.2 s late (Stale) until the session timed out: about 2 s without
-// force. Now it is accepted without moving the offset and the stream goes on.
+// One packet whose client time is 0.2 s ahead is accepted without moving the clock offset, so the
+// packets after it are not judged 0.2 s late (Stale) and the stream goes on (lowering the offset
+// would leave about 2 s without force, until the session timed out).
 TEST_F(Inbox, OneClientTimeAheadDoesNotStallTheStream) {
   uint32_t seq = 0;
   for (int i = 0; i < 20; ++i) {

@@ -78,8 +78,9 @@ TEST(DeviceFactory, BadSpecsNameTheSpec) {
   std::filesystem::remove(bad_csv);
 }
 
-// Issue 26 item 15: `--device scripted:FIFO` blocked forever; /dev/zero read over 1 GB. Both are
-// refused at once, naming the spec and the file's kind.
+// A trajectory file that is not a regular file (a FIFO, which would block the reader forever; a
+// character device such as /dev/zero, which never ends) is refused at once, naming the spec and the
+// file's kind.
 TEST(DeviceFactory, AScriptedFifoOrDeviceIsRefusedWithoutBlocking) {
   const auto fifo =
       std::filesystem::temp_directory_path() / ("cariesim_factory_fifo_" + std::to_string(::getpid()));

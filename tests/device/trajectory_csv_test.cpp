@@ -47,8 +47,8 @@ TEST(Trajectory, ColumnsInAnyOrderAndQuaternionsNormalised) {
   EXPECT_NEAR(tr.pose[0].p.y(), 2.0, 1e-12);
 }
 
-// Issue #14 item 9: a non-unit quaternion was silently normalised here and rejected by the UDP
-// bridge. One rule now: unit within kUnitTolerance (is_unit), else an error at its line and column.
+// A non-unit quaternion is judged as the UDP bridge judges it (not silently normalised): unit within
+// kUnitTolerance (is_unit), else an error at its line and column.
 TEST(Trajectory, NonUnitQuaternionsAreRejectedAsByTheBridge) {
   const std::string e = error_of("t,px,py,pz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0,2,0,0,0\n");
   EXPECT_NE(e.find("traj.csv:3:9: quaternion (qw,qx,qy,qz) has length 2"), std::string::npos) << e;
@@ -56,7 +56,7 @@ TEST(Trajectory, NonUnitQuaternionsAreRejectedAsByTheBridge) {
             std::string::npos);
 }
 
-// Issue #14 item 9: a UTF-8 byte order mark before the header made it "lack column 't'".
+// A UTF-8 byte order mark before the header is skipped (the header does not "lack column 't'").
 TEST(Trajectory, AByteOrderMarkIsSkipped) {
   const Trajectory tr =
       parse_trajectory_csv("\xEF\xBB\xBFt,px,py,pz,qw,qx,qy,qz\n0,1,2,3,1,0,0,0\n", "traj.csv");
@@ -64,8 +64,8 @@ TEST(Trajectory, AByteOrderMarkIsSkipped) {
   EXPECT_EQ(tr.pose[0].p.x(), 1.0);
 }
 
-// Issue #14 item 9: a directory given as a trajectory (sim --trajectory, scripted:DIR) was reported
-// as an "empty trajectory".
+// A directory given as a trajectory (sim --trajectory, scripted:DIR) is named as a folder, not
+// reported as an "empty trajectory".
 TEST(Trajectory, ADirectoryIsNamedAsSuch) {
   const auto dir = std::filesystem::temp_directory_path();
   try {
@@ -79,8 +79,8 @@ TEST(Trajectory, ADirectoryIsNamedAsSuch) {
   }
 }
 
-// Issue 26 item 15: a FIFO as a trajectory (`sim --trajectory`, `--device scripted:FIFO`) blocked
-// forever; /dev/zero read over 1 GB before failing. Both are refused at once, naming their kind.
+// A FIFO as a trajectory (`sim --trajectory`, `--device scripted:FIFO`), which would block the reader
+// forever, and /dev/zero, which never ends, are refused at once without reading, naming their kind.
 TEST(Trajectory, AFifoOrADeviceIsRefusedWithoutReading) {
   const auto dir =
       std::filesystem::temp_directory_path() / ("cariesim_traj_fifo_" + std::to_string(::getpid()));

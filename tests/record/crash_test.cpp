@@ -1,4 +1,4 @@
-// Crash safety (issue 5 acceptance): "killing the process with SIGKILL while recording loses at most
+// Crash safety (docs/records.md): "killing the process with SIGKILL while recording loses at most
 // the last 100 ms of samples". A child process (this test executable again, running only the
 // disabled test below) records a synthetic stream through the real Recorder, fed by a thread that
 // behaves like the servo loop (absolute deadlines at the servo rate, one non-blocking push per
@@ -279,9 +279,9 @@ TEST(RecorderCrash, SigkillLosesAtMostTheLast100Milliseconds) {
   }
 }
 
-// Issue #14 item 1: the database file alone (a copy made without its -wal, as a user copying "the
-// recording" does) holds all but the last second after a SIGKILL, because the writer checkpoints
-// every 250 ms. Before the fix it held only the schema: "not a cariesim recording". The kills come
+// The database file alone (a copy made without its -wal, as a user copying "the recording" does)
+// holds all but the last second after a SIGKILL, because the writer checkpoints every 250 ms (not
+// only the schema, "not a cariesim recording"). The kills come
 // 2.5 s and 2.8 s after the start, near a checkpoint. A kill during a checkpoint's copy (microseconds
 // every 250 ms, longer on a loaded machine) can leave the .db alone torn, whatever the journal mode;
 // that run is reported, the .db with its -wal is checked instead, and one more run is made, so two

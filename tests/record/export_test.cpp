@@ -259,9 +259,9 @@ TEST(Export, RoundTripsEveryField) {
   EXPECT_LT((trajectory.pose[800].p - stream[801].haptic.p).norm(), 1e-12);
 }
 
-// Issue 26 item 7: text from a recording (a scene name, a device spec, an event's detail) that a
-// spreadsheet would run as a formula went into the CSV as it was. It is neutralised with a leading
-// quote; numbers are not (a negative value stays a number).
+// Text from a recording (a scene name, a device spec, an event's detail) that a spreadsheet would run
+// as a formula is neutralised in the CSV with a leading quote; numbers are not (a negative value
+// stays a number).
 TEST(Export, FormulaLeadingTextIsNeutralised) {
   test::ScratchDir dir("export_formula");
   const auto file = dir / "session.db";
@@ -313,9 +313,9 @@ TEST(Export, UnreadableInputsThrowNamingTheFile) {
   }
 }
 
-// Issue #14 item 3: an export that fails part way (here a recording whose samples table is gone)
-// used to have truncated the earlier good export's files already (samples.csv, trajectory.csv). It
-// now writes into a staging folder and moves the files into place only when all are complete.
+// An export that fails part way (here a recording whose samples table is gone) leaves the earlier
+// good export's files (samples.csv, trajectory.csv) as they were: it writes into a staging folder
+// and moves the files into place only when all are complete.
 TEST(Export, AFailedExportLeavesAnEarlierOneAsItWas) {
   test::ScratchDir dir("export_atomic");
   const auto good = dir / "good.db";

@@ -69,10 +69,10 @@ TEST(Recorder, WritesWalDatabaseWithVersionedSchema) {
   EXPECT_TRUE(!std::filesystem::exists(wal) || std::filesystem::file_size(wal) == 0);
 }
 
-// Issue #14 item 1: the WAL is checkpointed into the database file as the recording goes (every
-// 250 ms of sample or wall time) and its file is bounded, so the .db alone holds the stream and an
-// hour stays under the size docs/records.md states. Before the fix the -wal file held everything
-// until stop() (7 MB here, 1.2 GB per hour) and the .db stayed 4 KB.
+// The WAL is checkpointed into the database file as the recording goes (every 250 ms of sample or
+// wall time) and its file is bounded, so the .db alone holds the stream and an hour stays under the
+// size docs/records.md states (a -wal file holding everything until stop() would be 7 MB here,
+// 1.2 GB per hour, beside a .db of 4 KB).
 TEST(Recorder, CheckpointsAsItGoesAndBoundsTheWal) {
   test::ScratchDir dir("wal_bound");
   const auto file = dir / "session.db";

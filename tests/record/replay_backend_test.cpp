@@ -1,5 +1,6 @@
 // The record module's replay backend of the device factory (register_replay_device,
-// record/replay.hpp): `replay:FILE[:loop]` makes a ReplayDevice that plays the recorded haptic poses.
+// record/replay.hpp): `replay:FILE[:loop]` makes a ReplayDevice (device/replay.hpp) over the
+// recording that plays the recorded haptic poses.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -38,7 +39,8 @@ TEST(ReplayBackend, MakesReplayDevicesFromSpecs) {
     recorder.stop();
   }
 
-  // The factory hands out the record module's ReplayDevice, which plays the recorded haptic poses.
+  // The factory hands out a ReplayDevice (device/replay.hpp) over the recording, which plays the
+  // recorded haptic poses.
   auto once = make_device("replay:" + file.string());
   EXPECT_EQ(once->info().name, "replay");
   auto* replay = dynamic_cast<ReplayDevice*>(once.get());

@@ -68,7 +68,8 @@ TEST(ReplayEngine, ReplayReproducesTheRecordedSession) {
     recorder.stop();
   }
 
-  ReplayDevice replay(file);
+  const auto device = make_replay_device(file);
+  ReplayDevice& replay = *device;
   ASSERT_EQ(replay.size(), run.size());
   State state(model, replay.read(0.0).pose);
   int sliding = 0;

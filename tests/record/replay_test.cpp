@@ -1,12 +1,14 @@
-// The replay device: recorded haptic poses on the servo clock (exact at sample times, linear/slerp
-// between them), velocities, buttons, the end of the recording, looping, the recorded graphic pose
-// for the ghost tool, and no allocation in read().
+// The record module's replay source: a recording, in memory or streamed from its file, played by the
+// device module's ReplayDevice (its own tests: tests/device/replay_test.cpp): the recorded poses at
+// sample times, the whole recorded sample at any time (recorded()), the session row, a long file
+// streamed with bounded memory, looping from the file, and the same playback as the scripted device.
 #include "cariesim/record/replay.hpp"
 
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
@@ -33,88 +35,57 @@ Recording synthetic_recording(double first_t = 0.0) {
 
 double angle_between(const Quat& a, const Quat& b) { return a.angularDistance(b); }
 
-TEST(ReplayDevice, PlaysRecordedPosesAtSampleTimes) {
+// The whole recorded sample at a time between two samples: both poses interpolated (as read() and
+// recorded_graphic() play them), every other field from the sample at or before it.
+TEST(ReplaySource, RecordedSampleBetweenSamples) {
   const Recording recording = synthetic_recording();
-  ReplayDevice device(recording);
-  for (std::size_t i = 0; i < kCount; i += 7) {
-    const double now = recording.samples[i].t;
-    const DeviceState state = device.read(now);
-    EXPECT_LT((state.pose.p - recording.samples[i].haptic.p).norm(), 1e-12) << i;
-    EXPECT_LT(angle_between(state.pose.q, recording.samples[i].haptic.q), 1e-9) << i;
-    EXPECT_EQ(state.buttons, recording.samples[i].buttons) << i;
-    EXPECT_TRUE(state.valid);
-    EXPECT_EQ(state.stamp, now);
-  }
-}
-
-TEST(ReplayDevice, InterpolatesBetweenSamples) {
-  const Recording recording = synthetic_recording();
-  ReplayDevice device(recording);
+  const auto device = make_replay_device(recording);
   const std::size_t k = 123;
   const ServoSample& a = recording.samples[k];
   const ServoSample& b = recording.samples[k + 1];
   const double now = a.t + 0.25 / kRate;
-  const DeviceState state = device.read(now);
+  const DeviceState state = device->read(now);
   EXPECT_LT((state.pose.p - (0.75 * a.haptic.p + 0.25 * b.haptic.p)).norm(), 1e-12);
-  // Slerp: a quarter of the way along the arc.
-  const double full = angle_between(a.haptic.q, b.haptic.q);
-  ASSERT_GT(full, 1e-6);
-  EXPECT_NEAR(angle_between(a.haptic.q, state.pose.q), 0.25 * full, 1e-9);
-  EXPECT_NEAR(angle_between(state.pose.q, b.haptic.q), 0.75 * full, 1e-9);
-  EXPECT_NEAR(state.pose.q.norm(), 1.0, 1e-12);
-  // The segment's velocity, mm/s and rad/s.
-  EXPECT_LT((state.velocity - (b.haptic.p - a.haptic.p) * kRate).norm(), 1e-6);
-  EXPECT_NEAR(state.angular_velocity.norm(), full * kRate, 1e-6);
-
-  // The ghost: the recorded graphic pose, interpolated the same way; the other fields from sample k.
-  const Pose ghost = device.recorded_graphic(now);
-  EXPECT_LT((ghost.p - (0.75 * a.graphic.p + 0.25 * b.graphic.p)).norm(), 1e-12);
-  const ServoSample recorded = device.recorded(now);
-  EXPECT_EQ(recorded.state, a.state);
-  EXPECT_EQ(recorded.force, a.force);
-  EXPECT_DOUBLE_EQ(recorded.t, now);
+  const ServoSample sample = recorded(*device, now);
+  EXPECT_EQ(sample.haptic.p, state.pose.p);
+  EXPECT_EQ(sample.graphic.p, device->recorded_graphic(now).p);
+  EXPECT_LT((sample.graphic.p - (0.75 * a.graphic.p + 0.25 * b.graphic.p)).norm(), 1e-12);
+  EXPECT_EQ(sample.state, a.state);
+  EXPECT_EQ(sample.force, a.force);
+  EXPECT_EQ(sample.buttons, a.buttons);
+  EXPECT_DOUBLE_EQ(sample.t, now);
+  EXPECT_EQ(replayed_recording(*device)->session().scene, recording.info.scene);
+  EXPECT_EQ(device->size(), kCount);
 }
 
-TEST(ReplayDevice, TimeGoingBackwardsAndRecordingsNotStartingAtZero) {
-  const Recording recording = synthetic_recording(5.0);
-  ReplayDevice device(recording);
-  EXPECT_DOUBLE_EQ(device.recording_time(0.0), 5.0);
-  const DeviceState late = device.read(0.250);
-  const DeviceState early = device.read(0.010);
-  EXPECT_LT((late.pose.p - recording.samples[250].haptic.p).norm(), 1e-9);
-  EXPECT_LT((early.pose.p - recording.samples[10].haptic.p).norm(), 1e-9);
-  EXPECT_GT(early.sequence, late.sequence);
+// A recording's samples that cannot be played in order (a time not finite or not after the one
+// before) are left out of the source, so recorded() never returns one.
+TEST(ReplaySource, LeavesOutSamplesThatCannotBePlayedInOrder) {
+  Recording recording = synthetic_recording();
+  recording.samples[10].t = std::numeric_limits<double>::quiet_NaN();
+  recording.samples[20].t = recording.samples[19].t;
+  recording.samples[20].state = InteractionState::Extracting;
+  recording.samples[19].state = InteractionState::Free;
+  const auto device = make_replay_device(recording);
+  EXPECT_EQ(device->size(), kCount - 2);
+  EXPECT_EQ(recorded(*device, recording.samples[19].t).state, InteractionState::Free);
+  EXPECT_TRUE(std::isfinite(recorded(*device, recording.samples[10].t).t));
 }
 
-TEST(ReplayDevice, EndsOrLoops) {
-  const Recording recording = synthetic_recording();
-  const double end = recording.samples.back().t;
-  ReplayDevice once(recording, false);
-  const DeviceState after = once.read(end + 1.0);
-  EXPECT_FALSE(after.valid) << "past the end the reading is invalid, so safety zeroes the force";
-  EXPECT_TRUE(once.finished(end + 1.0));
-  EXPECT_LT((after.pose.p - recording.samples.back().haptic.p).norm(), 1e-12) << "the last pose is held";
-
-  ReplayDevice looping(recording, true);
-  const double period = end;  // the playback rule's period: first to last sample
-  for (const double now : {0.0105, 0.2}) {
-    const DeviceState first = looping.read(now);
-    const DeviceState again = looping.read(now + 2.0 * period);
-    EXPECT_TRUE(again.valid);
-    EXPECT_LT((first.pose.p - again.pose.p).norm(), 1e-9) << now;
-  }
-  EXPECT_FALSE(looping.finished(100.0));
-  EXPECT_EQ(looping.info().name, "replay");
-  EXPECT_FALSE(looping.info().renders_force);
-}
-
-TEST(ReplayDevice, ReadAllocatesNothing) {
-  ReplayDevice device(synthetic_recording(), true);
+// The servo thread's read() of a replayed recording allocates nothing.
+TEST(ReplaySource, ReadAllocatesNothing) {
+  const auto device = make_replay_device(synthetic_recording(), true);
   double sum = 0.0;
   const std::size_t before = test::allocation_count();
-  for (int i = 0; i < 5000; ++i) sum += device.read(i * 1e-4).pose.p.x();
+  for (int i = 0; i < 5000; ++i) sum += device->read(i * 1e-4).pose.p.x();
   EXPECT_EQ(test::allocation_count(), before);
   EXPECT_TRUE(std::isfinite(sum));
+}
+
+// Only a device that plays a recording has one.
+TEST(ReplaySource, OtherDevicesPlayNoRecording) {
+  const NullDevice null(Pose{});
+  EXPECT_EQ(replayed_recording(null), nullptr);
 }
 
 TEST(ReplayDevice, FromARecordedFile) {
@@ -130,7 +101,8 @@ TEST(ReplayDevice, FromARecordedFile) {
   auto* replay = dynamic_cast<ReplayDevice*>(device.get());
   ASSERT_NE(replay, nullptr);
   EXPECT_EQ(replay->size(), kCount);
-  EXPECT_EQ(replay->session().scene, test::synthetic_session(kRate).scene);
+  ASSERT_NE(replayed_recording(*device), nullptr);
+  EXPECT_EQ(replayed_recording(*device)->session().scene, test::synthetic_session(kRate).scene);
   const ServoSample expected = test::synthetic_sample(42, kRate);
   // The loader thread streams the file: wait until the samples around the time are in.
   for (int wait = 0; !replay->ready(expected.t) && wait < 10000; ++wait)
@@ -139,7 +111,7 @@ TEST(ReplayDevice, FromARecordedFile) {
   EXPECT_LT((replay->recorded_graphic(expected.t).p - expected.graphic.p).norm(), 1e-12);
 
   EXPECT_THROW(make_replay_device(dir / "absent.db"), Error);
-  EXPECT_THROW(ReplayDevice(Recording{}), Error);
+  EXPECT_THROW((void)make_replay_device(Recording{}), Error);
 }
 
 // A file is streamed: the device holds at most kReplayReadAhead samples however long the recording
@@ -158,7 +130,8 @@ TEST(ReplayDevice, StreamsAFileWithBoundedMemory) {
     recorder.start();
     recorder.stop();
   }
-  ReplayDevice device(file, false);
+  const auto streamed = make_replay_device(file, false);
+  ReplayDevice& device = *streamed;
   EXPECT_EQ(device.size(), count);
   EXPECT_LE(device.buffered_samples(), kReplayReadAhead);
   for (std::size_t i = 0; i < count; ++i) {
@@ -178,7 +151,7 @@ TEST(ReplayDevice, StreamsAFileWithBoundedMemory) {
   // The look-up (the ghost tool's) reads the file at any time.
   const ServoSample middle = test::synthetic_sample(count / 2, kFast);
   EXPECT_LT((device.recorded_graphic(middle.t).p - middle.graphic.p).norm(), 1e-12);
-  EXPECT_EQ(device.recorded(middle.t).state, middle.state);
+  EXPECT_EQ(recorded(device, middle.t).state, middle.state);
 }
 
 // A looping file starts again at its last sample's time, as an in-memory recording does.
@@ -192,7 +165,8 @@ TEST(ReplayDevice, AStreamedFileLoops) {
     recorder.start();
     recorder.stop();
   }
-  ReplayDevice looping(file, true);
+  const auto device = make_replay_device(file, true);
+  ReplayDevice& looping = *device;
   const double period = test::synthetic_sample(kCount - 1, kRate).t;
   for (int cycle = 0; cycle < 3; ++cycle) {
     for (std::size_t i = 0; i < kCount; i += 11) {
@@ -222,8 +196,10 @@ TEST(ReplayDevice, PlaysAsTheScriptedDeviceDoes) {
     recorder.stop();
   }
   ScriptedDevice scripted(trajectory, true, "the recording's poses");
-  ReplayDevice memory(recording, true);
-  ReplayDevice streamed(file, true);
+  const auto from_memory = make_replay_device(recording, true);
+  const auto from_file = make_replay_device(file, true);
+  ReplayDevice& memory = *from_memory;
+  ReplayDevice& streamed = *from_file;
   const double duration = trajectory.end() - trajectory.start();
   scripted.start();
   for (double now = 0.0; now < 2.5 * duration; now += 0.37 / kRate) {
@@ -241,9 +217,9 @@ TEST(ReplayDevice, PlaysAsTheScriptedDeviceDoes) {
   // replay held the last sample for one more interval).
   const double now = duration + 0.5 / kRate;
   const Pose half = blend(recording.samples[0].haptic, recording.samples[1].haptic, 0.5);
-  ReplayDevice again(recording, true);
-  EXPECT_LT((again.read(now).pose.p - half.p).norm(), 1e-9);
-  EXPECT_DOUBLE_EQ(again.recording_time(now), 0.5 / kRate);
+  const auto again = make_replay_device(recording, true);
+  EXPECT_LT((again->read(now).pose.p - half.p).norm(), 1e-9);
+  EXPECT_DOUBLE_EQ(again->recording_time(now), 0.5 / kRate);
 }
 
 // A recording made elsewhere may hold quaternions a little off unit length (within the input guard's
@@ -262,8 +238,10 @@ TEST(ReplayDevice, BlendsToAUnitQuaternion) {
     recorder.start();
     recorder.stop();
   }
-  ReplayDevice memory(recording);
-  ReplayDevice streamed(file);
+  const auto from_memory = make_replay_device(recording);
+  const auto from_file = make_replay_device(file);
+  ReplayDevice& memory = *from_memory;
+  ReplayDevice& streamed = *from_file;
   for (std::size_t k : {10u, 123u, 250u}) {
     const double now = recording.samples[k].t + 0.4 / kRate;
     EXPECT_NEAR(memory.read(now).pose.q.norm(), 1.0, 1e-12) << k;

@@ -3,7 +3,7 @@
 /// frame (origin at the tip sphere's centre), interpolated linearly in position and by slerp in
 /// rotation with the quaternion normalised (blend), played from a hint (PlaybackCursor) under one loop
 /// rule (playback_offset). The scripted device (device/devices.hpp) plays a Trajectory, the replay
-/// device (record/replay.hpp) a recording streamed through its read-ahead ring, both with this cursor;
+/// device (device/replay.hpp) recorded frames streamed through its read-ahead ring, both with this cursor;
 /// `cariesim sim` and the experiments read trajectories from CSV files (device/trajectory_csv.hpp). The
 /// rule is described in docs/records.md ("Playback").
 

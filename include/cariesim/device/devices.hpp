@@ -1,7 +1,7 @@
 #pragma once
 /// The devices that need no hardware: `null` (holds the tool still) and `scripted:FILE[:loop]`
 /// (follows a trajectory on the servo clock; device/factory.hpp reads it from a CSV file). The
-/// UDP bridge is in udp_device.hpp, the replay device in record/replay.hpp, the mouse in the viewer.
+/// UDP bridge is in udp_device.hpp, the replay device in replay.hpp, the mouse in the viewer.
 
 #include <cstdint>
 #include <string>

@@ -3,8 +3,9 @@
 /// `cariesim study run`), one backend per spec prefix: `PREFIX` or `PREFIX:ARGUMENT`. Built in:
 /// `null`, `scripted:FILE[:loop]` (a trajectory CSV, device/trajectory_csv.hpp) and `udp:PORT[:HOST]`
 /// (device/udp_device.hpp). A module above registers its own: the record module's
-/// `replay:FILE[:loop]` (register_replay_device, record/replay.hpp, which the runtime's Session and the
-/// apps call), as the hardware backends will. `mouse` lives in the viewer, which composes it and hands
+/// `replay:FILE[:loop]` (a ReplayDevice, device/replay.hpp, over a recording's source;
+/// register_replay_device, record/replay.hpp, which the runtime's Session and the apps call), as the
+/// hardware backends will. `mouse` lives in the viewer, which composes it and hands
 /// it to a Session (servo/session.hpp).
 ///
 ///   register_device_backend({"mydevice", "mydevice:ID", [](const std::string& spec,

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -142,8 +143,7 @@ class ReplyBudget {
   std::atomic<uint64_t> received_{0};      // packets accepted so far
   std::atomic<int64_t> last_received_ns_;  // when the last one was
   uint64_t sent_ = 0;                      // the sender's thread only: wrenches that went out
-  bool any_sent_ = false;                  // the sender's thread only: last_echo_ is set
-  uint32_t last_echo_ = 0;                 // the sender's thread only: the pose the last one answered
+  std::optional<uint32_t> last_echo_;      // the sender's thread only: the pose the last one answered
 };
 
 /// Settings of the UDP device.
