@@ -2,13 +2,16 @@
 // process (tests/device/standins/haply): the hand presses the simulated Inverse3's cursor down onto
 // the friction block, the servo loop renders the contact through the backend, and the service receives
 // a force pushing up along the device's own z axis; at the end the force is zero and the WebSocket
-// closed. A service of another version is refused by name before the loop starts.
+// closed. The service going away mid-run ends the run cleanly (the record closed); a service of another
+// version is refused by name before the loop starts.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <thread>
 
 #include "apps/apps_support.hpp"
 #include "cariesim/record/recorder.hpp"
@@ -50,6 +53,29 @@ TEST_F(HaplyCommand, ServoRendersThePressOnTheStandIn) {
   EXPECT_GT(service.peak_force().norm(), 0.2);
   EXPECT_EQ(service.last_force(), Vec3::Zero());
   EXPECT_EQ(service.open_connections(), 0);
+}
+
+TEST_F(HaplyCommand, TheServiceGoingAwayEndsTheRunCleanly) {
+  test::InverseService service;
+  service.place_cursor(Vec3(0.0, 0.1, 0.1));
+  const fs::path db = dir_ / "lost.db";
+  test::CommandResult r;
+  std::thread servo([&] {
+    r = test::run_cariesim("servo --scene friction-block --device 'haply:" + service.url() +
+                           "' --duration 60 --no-realtime --record '" + db.string() + "'");
+  });
+  // Once the loop exchanges with the service, the service stops.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (service.commands() < 500 && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  service.go_away();
+  servo.join();
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("servo: the device was lost ("));
+  EXPECT_THAT(r.err, HasSubstr("device lost); ending the run"));
+  const Recording rec = load_recording(db);
+  EXPECT_FALSE(rec.info.ended_at.empty());
+  EXPECT_GT(rec.samples.size(), 100u);
 }
 
 TEST_F(HaplyCommand, AnotherServiceVersionIsRefusedByName) {
