@@ -7,8 +7,11 @@ find_package(spdlog REQUIRED)
 find_package(fmt REQUIRED)
 find_package(TBB REQUIRED)
 find_package(Threads REQUIRED)
-# Boost.Math (header only): the F distribution of the reports' one-way ANOVA (training module).
+# Boost.Math (header only): the F distribution of the reports' one-way ANOVA (training module);
+# Boost.Beast (header only): HTTP and WebSocket of the Haply backend (device module).
 find_package(Boost 1.74 REQUIRED)
+# nlohmann-json (header only): the Haply Inverse Service's JSON messages (device module).
+find_package(nlohmann_json 3 REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(SQLITE3 REQUIRED IMPORTED_TARGET sqlite3)
 # OpenSSL's libcrypto: PBKDF2-HMAC-SHA256 for the course file's instructor passphrase (training module).

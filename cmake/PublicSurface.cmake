@@ -20,6 +20,8 @@ set(CARIESIM_PUBLIC_HEADERS
   cariesim/device/devices.hpp
   cariesim/device/udp_device.hpp
   cariesim/device/replay.hpp
+  cariesim/device/haptic_device.hpp
+  cariesim/device/hardware_backends.hpp
   cariesim/record/recorder.hpp
   cariesim/record/replay.hpp
   cariesim/training/run.hpp

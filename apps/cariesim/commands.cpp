@@ -30,6 +30,7 @@ void register_scene(CLI::App& app, Registry& registry);
 void register_study(CLI::App& app, Registry& registry);   // study_command.cpp
 void register_course(CLI::App& app, Registry& registry);  // course_command.cpp
 void register_report(CLI::App& app, Registry& registry);  // report_command.cpp
+void register_device(CLI::App& app, Registry& registry);  // device_command.cpp
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -43,6 +44,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_sim(app, registry);
   register_experiment(app, registry);
   register_servo(app, registry);
+  register_device(app, registry);
   register_tree(app, registry);
   register_scene(app, registry);
   register_export(app, registry);

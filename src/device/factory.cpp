@@ -63,41 +63,49 @@ std::unique_ptr<Device> make_udp(const std::string& spec, std::optional<std::str
   return std::make_unique<UdpDevice>(udp);
 }
 
-// `touch[:NAME]`: OpenHaptics HD's device configured under NAME (none: the default device).
-std::unique_ptr<Device> make_touch(const std::string& spec, std::optional<std::string_view> argument,
-                                   const DeviceOptions& options) {
-  if (argument && argument->empty()) bad_device_spec(spec, "empty device name (expected touch[:NAME])");
+// A hardware device (docs/devices.md): the backend's device behind the profile (the file given, or
+// the built-in default), as a HapticDevice; what fails (the SDK, the device, the profile) names the
+// spec.
+template <class MakeHardware>
+std::unique_ptr<Device> make_hardware(const std::string& spec, const DeviceOptions& options,
+                                      MakeHardware make_hardware_device) {
   try {
     return std::make_unique<HapticDevice>(
-        make_touch_device(argument.value_or(std::string_view{})),
-        options.profile ? load_device_profile(*options.profile) : DeviceProfile{}, options.home);
+        make_hardware_device(), options.profile ? load_device_profile(*options.profile) : DeviceProfile{},
+        options.home);
   } catch (const Error& e) {
     bad_device_spec(spec, e.what());
   }
 }
 
-// `fd[:INDEX|SERIAL]`: a Force Dimension device (or a Falcon) behind the profile (docs/devices.md).
+// `touch[:NAME]`: OpenHaptics HD's device configured under NAME (none: the default device).
+std::unique_ptr<Device> make_touch(const std::string& spec, std::optional<std::string_view> argument,
+                                   const DeviceOptions& options) {
+  if (argument && argument->empty()) bad_device_spec(spec, "empty device name (expected touch[:NAME])");
+  return make_hardware(spec, options,
+                       [&] { return make_touch_device(argument.value_or(std::string_view{})); });
+}
+
+// `fd[:INDEX|SERIAL]`: a Force Dimension device (or a Falcon).
 std::unique_ptr<Device> make_fd(const std::string& spec, std::optional<std::string_view> argument,
                                 const DeviceOptions& options) {
-  std::unique_ptr<HardwareDevice> hardware;
-  try {
-    hardware = make_fd_device(argument.value_or(std::string_view{}));
-  } catch (const Error& e) {
-    bad_device_spec(spec, e.what());
-  }
-  return std::make_unique<HapticDevice>(
-      std::move(hardware), options.profile ? load_device_profile(*options.profile) : DeviceProfile{},
-      options.home);
+  return make_hardware(spec, options, [&] { return make_fd_device(argument.value_or(std::string_view{})); });
+}
+
+// `haply[:URL]`: an Inverse3 through Haply's Inverse Service.
+std::unique_ptr<Device> make_haply(const std::string& spec, std::optional<std::string_view> argument,
+                                   const DeviceOptions& options) {
+  return make_hardware(spec, options,
+                       [&] { return make_haply_device(argument.value_or(std::string_view{})); });
 }
 
 // The registry: the built-in backends first; guarded, since a module may register from any thread.
 struct Registry {
   std::mutex mutex;
-  std::vector<DeviceBackend> backends{{"null", "null", make_null},
-                                      {"scripted", "scripted:FILE[:loop]", make_scripted},
-                                      {"udp", "udp:PORT[:HOST]", make_udp},
-                                      {"touch", "touch[:NAME]", make_touch},
-                                      {"fd", "fd[:INDEX|SERIAL]", make_fd}};
+  std::vector<DeviceBackend> backends{
+      {"null", "null", make_null},          {"scripted", "scripted:FILE[:loop]", make_scripted},
+      {"udp", "udp:PORT[:HOST]", make_udp}, {"touch", "touch[:NAME]", make_touch},
+      {"fd", "fd[:INDEX|SERIAL]", make_fd}, {"haply", "haply[:URL]", make_haply}};
 };
 
 Registry& registry() {
