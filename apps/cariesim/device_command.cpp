@@ -55,7 +55,8 @@ int list_devices() {
       std::printf("%s: %s\n", survey.backend.c_str(), survey.sdk.describe().c_str());
       if (!survey.install.empty()) std::printf("  install: %s\n", survey.install.c_str());
     }
-    if (!survey.problem.empty()) std::printf("  %s\n", survey.problem.c_str());
+    if (!survey.problem.empty() && survey.sdk.describe().find(survey.problem) == std::string::npos)
+      std::printf("  %s\n", survey.problem.c_str());
     for (const HardwareInfo& d : survey.devices) {
       ++found;
       std::printf("  %s%s%s: %d-DoF in, %d-DoF out, %d buttons; %.2f N peak, %.2f N continuous, %.2f N/mm",
@@ -143,6 +144,7 @@ int check_device(const CheckArgs& args) {
     HapticStatus st = haptic->status();
     std::printf("  %d-DoF in, %d-DoF out; %s\n", st.hardware.dof_in, st.hardware.dof_out,
                 st.rendering().c_str());
+    const bool waited = st.calibration.readiness != Readiness::Ready;
     std::printf("  calibration: %s\n", st.calibration.message.c_str());
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(kCalibrationWait);
     while (st.calibration.readiness != Readiness::Ready && g_stop == 0 &&
@@ -156,7 +158,7 @@ int check_device(const CheckArgs& args) {
                    st.calibration.message.c_str());
       return 1;
     }
-    std::printf("  calibrated: %s\n", st.calibration.message.c_str());
+    if (waited) std::printf("  calibrated: %s\n", st.calibration.message.c_str());
   }
 
   // Poses for `seconds`, then the spring; clocked by the device when its SDK owns the servo thread.

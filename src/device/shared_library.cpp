@@ -46,7 +46,7 @@ std::string LibraryProbe::describe() const {
   if (!env_var.empty()) {
     const char* set = std::getenv(env_var.c_str());
     out += set != nullptr && *set != '\0' ? "; " + env_var + " is set to '" + set + "'"
-                                           : "; set " + env_var + " to the library's path to choose it";
+                                          : "; set " + env_var + " to choose where to look";
   }
   return out;
 }

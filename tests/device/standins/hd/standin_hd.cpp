@@ -8,8 +8,9 @@
 // hdUpdateCalibration with the device's calibration style.
 //
 // Test-only functions (standin_hd_*) move the hand, set buttons, inject errors, configure the device
-// and read back the force in HD's units. CARIESIM_STANDIN_HD=circle makes the hand trace a circle
-// (20 mm radius, 0.5 Hz, in the x-z plane) so that `cariesim servo --device touch` moves.
+// and read back the force in HD's units. CARIESIM_STANDIN_HD=circle makes the hand trace a circle (and
+// "buttons" in it presses buttons 0 and 1 in turn) (20 mm radius, 0.5 Hz, in the x-z plane) so that `cariesim
+// servo --device touch` moves.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -83,6 +84,7 @@ struct Standin {
   double rot[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0};
   int buttons = 0;
   bool circle = false;
+  bool press_buttons = false;  // CARIESIM_STANDIN_HD=...buttons: buttons 0 and 1 in turn, 0.25 s each
   double time = 0.0;  // s, scheduler time
   std::vector<HDErrorInfo> errors;
   HDerror inject_code = kSuccess;
@@ -122,6 +124,7 @@ void simulate(Standin& s, double dt) {
     s.hand[1] = 0.0;
     s.hand[2] = 20.0 * std::sin(phase);
   }
+  if (s.press_buttons) s.buttons = 1 << (static_cast<int>(s.time * 4.0) % 2);
   const int steps = std::clamp(static_cast<int>(std::ceil(dt / kSubstep)), 1, 1000);
   const double h = dt / steps;
   for (int k = 0; k < steps; ++k)
@@ -193,6 +196,7 @@ HHD hdInitDevice(HDstring config_name) {
   std::lock_guard<std::mutex> lock(s.mutex);
   const char* env = std::getenv("CARIESIM_STANDIN_HD");
   s.circle = env != nullptr && std::strstr(env, "circle") != nullptr;
+  s.press_buttons = env != nullptr && std::strstr(env, "buttons") != nullptr;
   if (s.open) {
     push_error(s, kDeviceAlreadyInitiated);
     return kInvalidHandle;
