@@ -474,6 +474,7 @@ std::string ViewerApp::status_json(int width, int height) const {
     json.field("calibrated", st.calibration.readiness == Readiness::Ready);
     json.field("calibration", st.calibration.message);
     json.field("force_enabled", st.force_enabled);
+    json.field("force_was_enabled", st.force_was_enabled);
     json.field("clutch", st.clutched);
     json.field("faults", describe_hardware_faults(st.faults));
     json.field("rendering", st.rendering());

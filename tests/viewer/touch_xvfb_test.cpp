@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,10 @@ TEST(TouchXvfb, RunDrivesTheViewerFromTheStandin) {
   for (const char* word :
        {"run", "--scene", "friction-block", "--device", "touch", "--no-realtime", "--exit-after", "1"})
     argv.emplace_back(word);
+  const fs::path png = test::viewer_artefacts() / "touch.png", json = test::viewer_artefacts() / "touch.json";
+  fs::remove(json);
+  argv.emplace_back("--screenshot");
+  argv.emplace_back(png.string());
   io::ProcessOptions options;
   options.environment = {"CARIESIM_CACHE_DIR=" + (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string(),
                          std::string("CARIESIM_HD_LIBRARY=") + CARIESIM_STANDIN_HD,
@@ -33,6 +38,18 @@ TEST(TouchXvfb, RunDrivesTheViewerFromTheStandin) {
   ASSERT_EQ(c.status, 0) << c.how << "\n" << c.err << c.out;
   EXPECT_THAT(c.out, HasSubstr("run: scene friction-block, device touch, 1000 Hz servo"));
   EXPECT_THAT(c.out, HasSubstr("real-time: clocked by the device's scheduler at 1000 Hz"));
+  // The panel's Device section and the status file: the device, its calibration, its force, and
+  // what a 3-DoF-force device drops.
+  std::ifstream in(json);
+  ASSERT_TRUE(in) << json;
+  const std::string status((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(status, HasSubstr("\"Device\""));
+  EXPECT_THAT(status, HasSubstr("\"hardware\":{\"model\":\"Touch\",\"calibrated\":true"));
+  EXPECT_THAT(status, HasSubstr("\"force_was_enabled\":true"));  // the file is written after the stop
+  EXPECT_THAT(status, HasSubstr("\"clutch\":false"));
+  EXPECT_THAT(
+      status,
+      HasSubstr("\"rendering\":\"3-DoF force: the torque (the shank's posture cue) is not rendered\""));
 }
 
 }  // namespace
