@@ -1,5 +1,6 @@
 // A study without a window (docs/training.md, "headless"): answers files, and each trial run as a
-// recorded Session driven by a scripted device, then answered from the file and ended.
+// recorded Session driven by a scripted device, then answered from the file and ended. A hardware
+// device's buttons mark and end a diagnosis case as its profile maps them, as in the viewer.
 
 #include "cariesim/training/headless.hpp"
 
@@ -9,9 +10,12 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <optional>
 #include <thread>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/device/haptic_device.hpp"
+#include "cariesim/device/profile.hpp"
 #include "cariesim/io/file.hpp"
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
@@ -109,9 +113,10 @@ const ServoSample& recorded_sample(const Recording& rec, double t, const SourceL
   return *best;
 }
 
-// Runs the session until the device's path ends, the servo clock reaches `limit` (s), or forever for
-// limit = infinity with a device that ends.
-void drive(Session& session, bool ends, double limit) {
+// Runs the session until the device's path ends, the servo clock reaches `limit` (s), a button the
+// device's profile maps to end case is pressed (`end_on_button`), or forever for limit = infinity with
+// a device that ends.
+void drive(Session& session, bool ends, double limit, bool end_on_button) {
   session.start();
   bool seen_valid = false;
   ServoSnapshot snapshot;
@@ -120,9 +125,36 @@ void drive(Session& session, bool ends, double limit) {
     if (!session.latest(snapshot)) continue;
     if (snapshot.t >= limit) break;
     if (ends && seen_valid && !snapshot.device.valid) break;
+    if (end_on_button && (snapshot.device.actions & kActionEndCase) != 0) break;
     seen_valid = seen_valid || snapshot.device.valid;
   }
   session.stop();
+}
+
+// What a hardware device's buttons did in a diagnosis trial, from the recorded buttons through its
+// profile (docs/devices.md "Buttons"): a mark at each rising edge of mark mild / mark severe (at the
+// graphic tip, touching or not), and the case's end at the first rising edge of end case.
+struct ButtonAnswers {
+  std::vector<Mark> marks;
+  std::optional<double> end;  // s
+};
+ButtonAnswers answers_from_buttons(const Recording& rec, const DeviceProfile& profile) {
+  ButtonAnswers out;
+  uint32_t last = 0;
+  for (const ServoSample& s : rec.samples) {
+    const uint32_t actions = profile_actions(profile, s.buttons);
+    const uint32_t pressed = actions & ~last;
+    last = actions;
+    if ((pressed & kActionMarkMild) != 0)
+      out.marks.push_back({s.graphic.p, Grade::Mild, s.t, s.contacts > 0});
+    if ((pressed & kActionMarkSevere) != 0)
+      out.marks.push_back({s.graphic.p, Grade::Severe, s.t, s.contacts > 0});
+    if ((pressed & kActionEndCase) != 0) {
+      out.end = s.t;
+      break;
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -175,7 +207,9 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
       if (setup.time_limit > 0.0) limit = setup.time_limit;
       if (entry.end) limit = std::min(limit, *entry.end);
       if (!ends) limit = std::min(limit, options.duration > 0.0 ? options.duration : kDefaultDuration);
-      drive(session, ends, limit);
+      // A hardware device (touch, fd, haply): its profile's buttons mark and end a diagnosis case.
+      const auto* haptic = dynamic_cast<const HapticDevice*>(&session.device());
+      drive(session, ends, limit, haptic != nullptr && setup.kind == StudyKind::Diagnosis);
       if (const Recorder* recorder = session.recorder(); recorder != nullptr && !recorder->status().ok)
         throw Error(recorder->status().message);
 
@@ -198,16 +232,22 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
             run.name_shape(static_cast<int>(i), entry.shapes[i]);
           break;
         case StudyKind::Diagnosis: {
-          // The file's marks and the recorded button presses, in time order.
+          // The file's marks, the recorded button presses the file names, and a hardware device's
+          // marks and end case (its profile's buttons), in time order.
           std::vector<ScriptedMark> marks = entry.marks;
           for (const Mark& m : marks_from_buttons(rec, entry.mild_button, entry.severe_button))
             marks.push_back({m.t, m.tip, m.grade, m.contact});
+          std::optional<double> end = entry.end;
+          if (haptic != nullptr) {
+            const ButtonAnswers pressed = answers_from_buttons(rec, haptic->profile());
+            for (const Mark& m : pressed.marks) marks.push_back({m.t, m.tip, m.grade, m.contact});
+            if (pressed.end && (!end || *pressed.end < *end)) end = pressed.end;
+          }
           std::stable_sort(marks.begin(), marks.end(),
                            [](const ScriptedMark& a, const ScriptedMark& b) { return a.t < b.t; });
           for (const ScriptedMark& m : marks) {
             // A mark after the case's time ran out, or after its end, is not made.
-            if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end))
-              continue;
+            if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (end && m.t > *end)) continue;
             if (m.at) {
               run.mark(*m.at, m.grade, m.t, m.contact);
             } else {
@@ -215,7 +255,7 @@ std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answ
               run.mark(s.graphic.p, m.grade, m.t, s.contacts > 0);
             }
           }
-          if (entry.end) run.end_case(*entry.end);
+          if (end) run.end_case(*end);
           break;
         }
       }

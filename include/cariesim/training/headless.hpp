@@ -78,7 +78,8 @@ struct HeadlessOptions {
 
 /// Runs every trial of `run` (from its current one): builds the scene, runs a recorded Session with the
 /// device until the path ends (or the case's end or time limit), gives the answers and ends the
-/// trial. Returns the results. Throws cariesim::Error naming the trial and what failed.
+/// trial; a hardware device's buttons (its profile's mark_mild, mark_severe, end_case) also mark and
+/// end a diagnosis case. Returns the results. Throws cariesim::Error naming the trial and what failed.
 std::vector<TrialResult> run_headless(StudyRun& run, const ScriptedAnswers& answers,
                                       const HeadlessOptions& options);
 

@@ -10,17 +10,21 @@
 // Test-only functions (standin_hd_*) move the hand, set buttons, inject errors, configure the device
 // and read back the force in HD's units. CARIESIM_STANDIN_HD=circle makes the hand trace a circle (and
 // "buttons" in it presses buttons 0 and 1 in turn) (20 mm radius, 0.5 Hz, in the x-z plane) so that `cariesim
-// servo --device touch` moves.
+// servo --device touch` moves. CARIESIM_STANDIN_HD_BUTTONS="T:MASK,T:MASK,..." scripts the buttons: from T
+// seconds after hdStartScheduler on, the pressed buttons are MASK (bit i = button i), e.g. "0.5:1,1.5:0"
+// holds button 0 from 0.5 s to 1.5 s.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "device/touch_api.hpp"
@@ -85,7 +89,9 @@ struct Standin {
   int buttons = 0;
   bool circle = false;
   bool press_buttons = false;  // CARIESIM_STANDIN_HD=...buttons: buttons 0 and 1 in turn, 0.25 s each
-  double time = 0.0;  // s, scheduler time
+  std::vector<std::pair<double, int>> button_script;  // CARIESIM_STANDIN_HD_BUTTONS: (s, mask), by time
+  double scheduler_started = 0.0;                     // s, scheduler time at hdStartScheduler
+  double time = 0.0;                                  // s, scheduler time
   std::vector<HDErrorInfo> errors;
   HDerror inject_code = kSuccess;
   int inject_internal = 0;
@@ -107,6 +113,29 @@ Standin& state() {
   return s;
 }
 
+// CARIESIM_STANDIN_HD_BUTTONS's "T:MASK,..." (times in s, increasing); a malformed script is said on
+// stderr and ignored.
+std::vector<std::pair<double, int>> parse_button_script(const char* text) {
+  std::vector<std::pair<double, int>> script;
+  if (text == nullptr) return script;
+  const char* p = text;
+  while (*p != '\0') {
+    char* end = nullptr;
+    const double at = std::strtod(p, &end);
+    if (end == p || *end != ':' || !std::isfinite(at) || (!script.empty() && at < script.back().first)) break;
+    p = end + 1;
+    const long mask = std::strtol(p, &end, 10);
+    if (end == p || mask < 0 || mask > 0xFFFF || (*end != ',' && *end != '\0')) break;
+    script.emplace_back(at, static_cast<int>(mask));
+    p = *end == ',' ? end + 1 : end;
+  }
+  if (*p != '\0') {
+    std::fprintf(stderr, "standin HD: CARIESIM_STANDIN_HD_BUTTONS: not T:MASK,... at '%s'; ignored\n", p);
+    script.clear();
+  }
+  return script;
+}
+
 // Pushes an error (the caller holds the mutex); the stack is bounded like HD's.
 void push_error(Standin& s, HDerror code, int internal = 0) {
   if (s.errors.size() < 64) s.errors.push_back({code, internal, s.handle});
@@ -125,6 +154,8 @@ void simulate(Standin& s, double dt) {
     s.hand[2] = 20.0 * std::sin(phase);
   }
   if (s.press_buttons) s.buttons = 1 << (static_cast<int>(s.time * 4.0) % 2);
+  for (const auto& [at, mask] : s.button_script)
+    if (s.time - s.scheduler_started >= at) s.buttons = mask;
   const int steps = std::clamp(static_cast<int>(std::ceil(dt / kSubstep)), 1, 1000);
   const double h = dt / steps;
   for (int k = 0; k < steps; ++k)
@@ -197,6 +228,7 @@ HHD hdInitDevice(HDstring config_name) {
   const char* env = std::getenv("CARIESIM_STANDIN_HD");
   s.circle = env != nullptr && std::strstr(env, "circle") != nullptr;
   s.press_buttons = env != nullptr && std::strstr(env, "buttons") != nullptr;
+  s.button_script = parse_button_script(std::getenv("CARIESIM_STANDIN_HD_BUTTONS"));
   if (s.open) {
     push_error(s, kDeviceAlreadyInitiated);
     return kInvalidHandle;
@@ -439,6 +471,7 @@ void hdStartScheduler() {
   Standin& s = state();
   std::lock_guard<std::mutex> lock(s.mutex);
   if (s.running.load()) return;
+  s.scheduler_started = s.time;
   s.running = true;
   s.thread = std::thread(scheduler_loop);
   s.scheduler_id = s.thread.get_id();
@@ -518,6 +551,7 @@ void standin_hd_reset() {
   std::copy(rest, rest + 9, s.rot);
   s.buttons = 0;
   s.time = 0.0;
+  s.scheduler_started = 0.0;
   s.errors.clear();
   s.inject_frames = 0;
   s.rate = 1000;
