@@ -4,6 +4,8 @@
 
 #include <cstdio>
 
+#include "cariesim/common/error.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "cariesim/training/study.hpp"
 
 namespace cariesim::cli {
@@ -18,6 +20,31 @@ CLI::Option* add_seed_option(CLI::App* sub, std::optional<uint64_t>& seed, const
       },
       fmt::format("SEED in [0 - {}]", training::kMaxSeed));
   return sub->add_option("--seed", seed, description)->check(strict);
+}
+
+void add_set_option(CLI::App* sub, std::vector<std::string>& sets) {
+  // Each argument is read as it is given, so a malformed key is named before anything runs.
+  const CLI::Validator key_path(
+      [](std::string& text) -> std::string {
+        try {
+          (void)parse_override(text);
+        } catch (const Error& e) {
+          return e.what();
+        }
+        return {};
+      },
+      "KEY=VALUE");
+  sub->add_option("--set", sets,
+                  "Override a scene parameter, e.g. --set lesions[0].material.k_c=0.4 (repeatable; "
+                  "checked as in the scene file)")
+      ->allow_extra_args(false)
+      ->check(key_path);
+}
+
+std::vector<SceneOverride> scene_overrides(const std::vector<std::string>& sets) {
+  std::vector<SceneOverride> overrides;
+  for (const std::string& set : sets) overrides.push_back(parse_override(set));
+  return overrides;
 }
 
 // Defined in the command files (run_command.cpp, tree_command.cpp, scene_command.cpp,

@@ -8,7 +8,15 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/scene/scene_desc.hpp"
+
 namespace cariesim::cli {
+
+/// Adds `--set KEY=VALUE` (repeatable) to a subcommand: a scene parameter override
+/// (docs/scene-format.md, "Overrides"), its key checked as given (parse_override).
+void add_set_option(CLI::App* sub, std::vector<std::string>& sets);
+/// The overrides of the `--set` arguments, in order.
+std::vector<SceneOverride> scene_overrides(const std::vector<std::string>& sets);
 
 /// A number option's check: finite and in [min, max]. CLI11's Range and NonNegativeNumber let NaN
 /// through (every comparison with NaN is false), so every real-valued option uses this instead.

@@ -15,6 +15,7 @@ void register_experiment(CLI::App& app, Registry& registry) {
     double rate = 1000.0;
     bool quiet = false;
     bool no_figures = false;
+    std::vector<std::string> sets;  // --set KEY=VALUE
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub =
@@ -27,6 +28,7 @@ void register_experiment(CLI::App& app, Registry& registry) {
   sub->add_option("--out", args->out, "Output folder")->required();
   sub->add_option("--rate", args->rate, "Servo rate of the simulated runs (Hz)")
       ->check(finite_range(100.0, 20000.0));
+  add_set_option(sub, args->sets);
   sub->add_flag("--quiet", args->quiet, "No progress");
   sub->add_flag("--no-figures", args->no_figures, "Write data and summary only");
   registry.add(sub, [args] {
@@ -34,6 +36,7 @@ void register_experiment(CLI::App& app, Registry& registry) {
     options.out = args->out;
     options.rate_hz = args->rate;
     options.quiet = args->quiet;
+    options.overrides = scene_overrides(args->sets);
     if (!args->no_figures) {
       const bool quiet = args->quiet;
       options.draw_figures = [quiet](const std::filesystem::path& dir, const std::string& name) {

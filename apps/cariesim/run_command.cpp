@@ -40,6 +40,7 @@ struct RunArgs {
   std::string course, participant, station, script, answers;
   int trials = 0;  // 0: the study's count
   std::optional<uint64_t> seed;
+  std::vector<std::string> sets;  // --set KEY=VALUE
 };
 
 int run_simulator(const RunArgs& args) {
@@ -51,6 +52,7 @@ int run_simulator(const RunArgs& args) {
   }
   viewer::ViewerOptions options;
   options.scene = args.scene;
+  options.overrides = scene_overrides(args.sets);
   options.device = args.device;
   options.device_profile = args.device_profile;
   options.rate_hz = args.rate;
@@ -90,6 +92,7 @@ void register_run(CLI::App& app, Registry& registry) {
       ->capture_default_str();
   sub->add_option("--device", args->device, device_help("mouse | "))->capture_default_str();
   add_device_profile_option(sub, args->device_profile);
+  add_set_option(sub, args->sets);
   sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's, 1000)")
       ->check(finite_range(1.0, 10000.0));
   auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");

@@ -28,15 +28,16 @@ struct ServoArgs {
   std::string scene = "oral-cavity";
   std::string device = "null";
   std::string device_profile;  // a hardware device's profile file
-  double rate = 0.0;         // Hz; 0 = the scene's servo rate
-  double duration = 0.0;     // s; 0 = until the device ends or Ctrl-C
-  std::string record;        // SQLite file, optional
-  bool overwrite = false;    // replace an existing record file
-  double force_scale = 1.0;  // global force scale in [0, 1]
+  double rate = 0.0;           // Hz; 0 = the scene's servo rate
+  double duration = 0.0;       // s; 0 = until the device ends or Ctrl-C
+  std::string record;          // SQLite file, optional
+  bool overwrite = false;      // replace an existing record file
+  double force_scale = 1.0;    // global force scale in [0, 1]
   bool no_realtime = false;
   double spin_us = kDefaultSpinUs;  // µs polled before each deadline
   bool no_standby = false;          // no standby servo thread (ServoOptions::standby)
   bool quiet = false;
+  std::vector<std::string> sets;  // --set KEY=VALUE
 };
 
 // The exit status of a run whose recording failed (disk full, I/O error): the run itself ended
@@ -121,9 +122,11 @@ int run_servo(const ServoArgs& args) {
   // The model, then the session: its device, servo loop and (with --record) recorder.
   BuildOptions build;
   if (!args.quiet) build.progress = progress_printer();
-  const Model model = build_model(load_scene(args.scene), build);
+  const Model model = build_model(load_scene(args.scene, scene_overrides(args.sets)), build);
   SessionOptions options;
+  // The record names the scene with its overrides (the scene hash covers them too).
   options.scene = args.scene;
+  for (const std::string& set : args.sets) options.scene += " --set " + set;
   options.device = args.device;
   options.device_profile = args.device_profile;
   options.rate_hz = args.rate;
@@ -235,6 +238,7 @@ void register_servo(CLI::App& app, Registry& registry) {
   sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
   sub->add_option("--device", args->device, device_help())->capture_default_str();
   add_device_profile_option(sub, args->device_profile);
+  add_set_option(sub, args->sets);
   sub->add_option("--rate", args->rate, "Servo rate in Hz, up to 10000 (default: the scene's)")
       ->check(finite_range(1.0, 10000.0));
   sub->add_option("--duration", args->duration, "Seconds to run (default: until a path ends, or Ctrl-C)")

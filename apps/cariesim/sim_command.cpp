@@ -23,6 +23,7 @@ struct SimArgs {
   std::string out;
   double rate = 0.0;  // Hz; 0 = the scene's servo rate
   bool quiet = false;
+  std::vector<std::string> sets;  // --set KEY=VALUE
 };
 
 // The output must not be the trajectory it reads: the same path, or the same file through a link.
@@ -40,7 +41,7 @@ int run_sim(const SimArgs& args) {
   if (args.rate > 0.0) (void)sim_step_count(trajectory, args.rate);  // refused before the build
   BuildOptions build;
   if (!args.quiet) build.progress = progress_printer();
-  const Model model = build_model(load_scene(args.scene), build);
+  const Model model = build_model(load_scene(args.scene, scene_overrides(args.sets)), build);
   const double rate = args.rate > 0.0 ? args.rate : model.servo_rate;
   (void)sim_step_count(trajectory, rate);  // an absurd span is refused before the output is created
 
@@ -74,11 +75,13 @@ void register_sim(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<SimArgs>();
   CLI::App* sub = app.add_subcommand("sim", "Drive the haptic tool along a trajectory CSV, headless");
   sub->add_option("--scene", args->scene, "Built-in scene name or scene YAML file")->capture_default_str();
-  sub->add_option("--trajectory", args->trajectory, "CSV with header t,px,py,pz,qw,qx,qy,qz (s, mm, unit quaternion)")
+  sub->add_option("--trajectory", args->trajectory,
+                  "CSV with header t,px,py,pz,qw,qx,qy,qz (s, mm, unit quaternion)")
       ->required();
   sub->add_option("--out", args->out, "Output CSV, one row per servo step")->required();
   sub->add_option("--rate", args->rate, "Servo rate in Hz (default: the scene's)")
       ->check(finite_range(1.0, 100000.0));
+  add_set_option(sub, args->sets);
   sub->add_flag("--quiet", args->quiet, "No progress or summary");
   registry.add(sub, [args] { return run_sim(*args); });
 }

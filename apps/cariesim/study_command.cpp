@@ -28,8 +28,9 @@ struct StudyRunArgs {
   std::string station;
   std::optional<uint64_t> seed;  // unset: the study's, else drawn
   int trials = 0;                // 0: the study's
-  double duration = 0.0;  // s per trial when the device does not end
+  double duration = 0.0;         // s per trial when the device does not end
   bool quiet = false;
+  std::vector<std::string> sets;  // --set KEY=VALUE
 };
 
 // One line per study: its name, kind, trial count and description.
@@ -80,6 +81,7 @@ int run_study(const StudyRunArgs& args) {
   options.database = args.out;
   options.seed = args.seed;
   if (args.trials > 0) options.trials = args.trials;
+  options.overrides = scene_overrides(args.sets);
   training::StudyRun run(study, options);
   training::HeadlessOptions headless;
   headless.device = args.device;
@@ -116,6 +118,7 @@ void register_study(CLI::App& app, Registry& registry) {
   add_device_profile_option(run, args->device_profile);
   run->add_option("--answers", args->answers, "answers file (YAML, docs/training.md)")->required();
   run->add_option("--out", args->out, "study database (SQLite), created or appended to")->required();
+  add_set_option(run, args->sets);
   run->add_option("--station", args->station, "station name in the database (default: the host name)");
   add_seed_option(run, args->seed, "study seed, 0 to 2^63-1 (default: the study's, else drawn)");
   run->add_option("--trials", args->trials, "number of trials (default: the study's)")

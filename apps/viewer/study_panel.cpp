@@ -75,6 +75,7 @@ void ViewerApp::start_study(const std::string& participant) {
   run_options.database = course_->database();
   run_options.trials = options_.trials;
   run_options.seed = options_.seed;
+  run_options.overrides = options_.overrides;
   // Nothing on disk names the running trial's case (its seed waits for its end; its recording is
   // held in memory, start_session); a new records folder is owner-only.
   run_options.hide_case_while_running = true;

@@ -73,7 +73,7 @@ void SceneSession::stop() {
 ViewerApp::ViewerApp(const ViewerOptions& options) : options_(options) {
   // Bad input fails before any window opens: the scene must parse, the device spec must make a device,
   // an existing record file needs --overwrite.
-  (void)load_scene(options_.scene);
+  (void)load_scene(options_.scene, options_.overrides);
   if (!options_.record.empty() && !options_.overwrite && std::filesystem::exists(options_.record))
     throw Error(options_.record + ": the record file exists (--overwrite replaces it)");
   register_replay_device();
@@ -156,8 +156,10 @@ void ViewerApp::open_window() {
 }
 
 void ViewerApp::request_build(const std::string& source) {
+  // The command line's scene with its --set overrides; another scene loaded from the panel as it is.
+  const std::vector<SceneOverride> overrides = source == options_.scene ? options_.overrides : std::vector<SceneOverride>{};
   request_build(
-      source, [source] { return load_scene(source); }, false);
+      source, [source, overrides] { return load_scene(source, overrides); }, false);
 }
 
 void ViewerApp::request_build(const std::string& label, std::function<SceneDesc()> load, bool trial) {

@@ -6,13 +6,17 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "cariesim/scene/scene_desc.hpp"
 #include "cariesim/servo/servo.hpp"
 
 namespace cariesim::viewer {
 
 struct ViewerOptions {
   std::string scene = "real-arch";  ///< built-in scene name or scene YAML file
+  /// `--set` overrides of `scene` and of a course's trial scenes (docs/scene-format.md, "Overrides")
+  std::vector<SceneOverride> overrides;
   std::string device_profile;       ///< a hardware device's profile file (docs/devices.md); empty: default
   std::string device = "mouse";     ///< mouse | null | scripted:FILE[:loop] | replay:FILE | udp:PORT[:HOST]
   double rate_hz = 0.0;             ///< Hz, servo rate; 0: the scene's

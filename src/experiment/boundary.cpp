@@ -31,7 +31,7 @@ struct Run {
 
 void run_boundary(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "boundary: building boundary-square");
-  const Model model = build_model(load_scene("boundary-square"), options.build);
+  const Model model = build_model(load_scene("boundary-square", options.overrides), options.build);
   if (model.lesions.empty()) throw Error("boundary-square: the scene has no lesion");
   const LesionModel& lesion = model.lesions.front();
   const Vec3 c = lesion.shape.center;

@@ -28,7 +28,7 @@ struct Run {
 
 void run_friction(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "friction: building friction-block");
-  const Model model = build_model(load_scene("friction-block"), options.build);
+  const Model model = build_model(load_scene("friction-block", options.overrides), options.build);
   if (model.lesions.empty()) throw Error("friction-block: the scene has no carious top");
   const LesionModel& top = model.lesions.front();
   const Vec3 surface = top.shape.center;  // a point on the carious top, normal +z

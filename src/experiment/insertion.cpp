@@ -123,7 +123,7 @@ void run_kc_sweep(const ExperimentOptions& options, const Model& base, const Tra
 
 void run_insertion(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "insertion: building insertion-blocks");
-  const Model model = build_model(load_scene("insertion-blocks"), options.build);
+  const Model model = build_model(load_scene("insertion-blocks", options.overrides), options.build);
   if (model.lesions.empty()) throw Error("insertion-blocks: the scene has no lesion");
   const LesionModel& lesion = model.lesions.front();
   const Material& caries = model.defaults.materials[lesion.material];

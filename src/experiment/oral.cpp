@@ -145,7 +145,7 @@ Trajectory probe_trajectory(const Model& model, const LesionModel& lesion, const
 
 void run_oral(const ExperimentOptions& options, io::JsonWriter& summary) {
   say(options, "oral: building oral-cavity");
-  const Model model = build_model(load_scene("oral-cavity"), options.build);
+  const Model model = build_model(load_scene("oral-cavity", options.overrides), options.build);
   summary.field("experiment", "oral").field("paper", "Figs. 15-16, §5.3").key("lesions").begin_array();
   double state_force[4] = {0, 0, 0, 0};
   int state_count[4] = {0, 0, 0, 0};

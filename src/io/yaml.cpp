@@ -46,6 +46,21 @@ std::string describe(const YAML::Node& node) {
   return fmt::format("'{}'", value);
 }
 
+// True when `node` is `root` or lies inside it (keys included). Bounded by the node count the
+// document passed (parse_document's kMaxYamlNodes).
+bool contains(const YAML::Node& root, const YAML::Node& node) {
+  if (!root.IsDefined() || !node.IsDefined()) return false;
+  if (root.is(node)) return true;
+  if (root.IsSequence()) {
+    for (const YAML::Node& child : root)
+      if (contains(child, node)) return true;
+  } else if (root.IsMap()) {
+    for (const auto& entry : root)
+      if (contains(entry.first, node) || contains(entry.second, node)) return true;
+  }
+  return false;
+}
+
 // How many ancestors of a node are compared with it to name an alias inside its own anchor at once
 // (a longer cycle is still stopped by kMaxYamlNodes).
 constexpr std::size_t kCycleLookBack = 64;
@@ -133,6 +148,11 @@ std::string Reader::where(const YAML::Mark& mark) const {
 }
 
 std::string Reader::where(const YAML::Node& node) const {
+  // A node placed from elsewhere (or inside one) is named by its label; only failures ask, so the
+  // walk costs nothing on the way of a valid document.
+  for (const auto& [placed, label] : placed_) {
+    if (contains(placed, node)) return label;
+  }
   return where(node.IsDefined() ? node.Mark() : YAML::Mark::null_mark());
 }
 

@@ -17,6 +17,7 @@
 #include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "cariesim/spheretree/cache.hpp"
+#include "overrides.hpp"
 
 namespace cariesim {
 
@@ -639,13 +640,24 @@ LesionShape lesion_shape_in_world(const SceneDesc& scene, const LesionDesc& lesi
 }
 
 SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin) {
-  const Reader r(origin.string());
+  return parse_scene(yaml, origin, {});
+}
+
+SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin,
+                      std::span<const SceneOverride> overrides) {
+  Reader r(origin.string());
   SceneDesc scene;
   scene.origin = origin.string();
-  scene.source_hash = BuildKey().add(yaml).value();
+  // The overrides are part of what the scene is (the tree cache's key and the records' hash).
+  BuildKey hash;
+  hash.add(yaml);
+  for (const SceneOverride& o : overrides) hash.add(o.key).add(o.value);
+  scene.source_hash = hash.value();
+  scene.overrides.assign(overrides.begin(), overrides.end());
 
-  // One strict document (size, syntax, aliases: io::parse_document).
-  const YAML::Node root = io::parse_document(yaml, origin.string());
+  // One strict document (size, syntax, aliases: io::parse_document), then the overrides placed in it.
+  YAML::Node root = io::parse_document(yaml, origin.string());
+  scene_detail::apply_overrides(root, overrides, r);
 
   try {
     const Fields f(
@@ -706,11 +718,13 @@ SceneDesc mesh_scene(const std::filesystem::path& mesh, const TreeDesc& tree) {
   return scene;
 }
 
-SceneDesc load_scene(const std::string& name_or_file) {
+SceneDesc load_scene(const std::string& name_or_file) { return load_scene(name_or_file, {}); }
+
+SceneDesc load_scene(const std::string& name_or_file, std::span<const SceneOverride> overrides) {
   // A built-in scene by name, else a file.
   const io::NamedText source =
       io::builtin_or_file(name_or_file, "scene", builtin_scene_yaml(name_or_file), builtin_scene_names());
-  return parse_scene(source.text, source.origin);
+  return parse_scene(source.text, source.origin, overrides);
 }
 
 }  // namespace cariesim

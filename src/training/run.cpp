@@ -25,6 +25,7 @@
 #include "cariesim/common/error.hpp"
 #include "cariesim/io/file.hpp"
 #include "cariesim/io/json.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "cariesim/io/sqlite.hpp"
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/record/recorder.hpp"
@@ -474,6 +475,8 @@ const TrialSetup& StudyRun::begin_trial() {
   if (finished()) throw Error(fmt::format("study {}: all {} trials have ended", study_.name, trial_count_));
   if (in_trial_) throw Error(fmt::format("study {}: trial {} has begun already", study_.name, current_ + 1));
   setup_ = make_trial(study_, current_, trial_seed(seed_, current_));
+  if (!options_.overrides.empty())
+    setup_.scene_yaml = override_scene_text(setup_.scene_yaml, setup_.scene_origin, options_.overrides);
   answers_ = TrialAnswers{};
   answers_.shapes.assign(setup_.cubes.size(), std::string());
   level_ = 0;

@@ -244,14 +244,14 @@ TEST(IncludeGraph, TheCheckerFindsAPrivateHeaderIncludedFromOutside) {
 }
 
 TEST(IncludeGraph, NoFileIncludesAnotherModulesPrivateHeader) {
-  // What another module, a public header, bench/, apps/ or another module's tests use of a module is
+  // What another module, a public header, bench/, apps/, python/ or another module's tests use of a module is
   // its public API (include/cariesim/); a module's private headers (src/<module>/) serve its own code
   // and its own tests. (src/ is on no other target's include path; this also catches a module that
   // reaches a neighbour's private header through its own.)
   const fs::path root = CARIESIM_SOURCE_DIR;
   std::vector<Violation> violations;
   int files = 0;
-  for (const char* top : {"src", "include/cariesim", "bench", "apps", "tests"}) {
+  for (const char* top : {"src", "include/cariesim", "bench", "apps", "python", "tests"}) {
     ASSERT_TRUE(fs::is_directory(root / top)) << (root / top);
     for (const auto& entry : fs::recursive_directory_iterator(root / top)) {
       if (!entry.is_regular_file() || !is_source(entry.path())) continue;
@@ -285,7 +285,7 @@ TEST(IncludeGraph, EveryPublicHeaderServesOutsideItsModule) {
       users[fs::relative(entry.path(), root / "include").generic_string()];
   }
   ASSERT_GT(users.size(), 20u);  // the scan saw the headers
-  for (const char* top : {"src", "include/cariesim", "bench", "apps", "examples", "tests"}) {
+  for (const char* top : {"src", "include/cariesim", "bench", "apps", "python", "examples", "tests"}) {
     for (const auto& entry : fs::recursive_directory_iterator(root / top)) {
       if (!entry.is_regular_file() || !is_source(entry.path())) continue;
       const fs::path relative = fs::relative(entry.path(), root);

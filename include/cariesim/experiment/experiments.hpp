@@ -24,6 +24,9 @@ struct ExperimentOptions {
       draw_figures;
   bool quiet = false;  ///< no progress on stderr
   BuildOptions build;  ///< how scenes are built (cache, progress)
+  /// Parameter overrides applied to every scene an experiment loads (`--set`, docs/scene-format.md,
+  /// "Overrides"); one that does not fit a scene fails the experiment, naming the override.
+  std::vector<SceneOverride> overrides;
 };
 
 /// Names accepted by run_experiment, in the order `all` runs them.

@@ -88,8 +88,13 @@ class Reader {
 
   [[nodiscard]] const std::string& file() const { return file_; }
 
+  /// Names `label` instead of "file:line:column" for `node`, and for every node inside it: a node that
+  /// came from elsewhere than the file (a parameter override, scene/scene.hpp).
+  void locate_as(const YAML::Node& node, std::string label) { placed_.emplace_back(node, std::move(label)); }
+
  private:
   std::string file_;
+  std::vector<std::pair<YAML::Node, std::string>> placed_;
 };
 
 /// The keys of one mapping, checked against the allowed set: a non-mapping, a non-scalar key, a

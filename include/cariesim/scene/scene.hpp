@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -18,9 +19,29 @@ namespace cariesim {
 /// Throws cariesim::Error with "file:line:column: message" on any problem (wrong type, missing
 /// field, unknown key, out-of-range value).
 SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin);
+/// Parses scene YAML after applying `overrides` in order to its document (missing mappings on the way are
+/// created; a sequence index must exist): an overridden value is read by the same rules as the file (an
+/// unknown key is refused, a value out of range named with its field), and a problem in it is located as
+/// "origin (override KEY): field: message". The overrides are kept in SceneDesc::overrides and change
+/// its source_hash.
+SceneDesc parse_scene(std::string_view yaml, const std::filesystem::path& origin,
+                      std::span<const SceneOverride> overrides);
 
 /// A built-in scene name ("oral-cavity", "friction-block", ...) or a path to a YAML file.
 SceneDesc load_scene(const std::string& name_or_file);
+/// The same, with parameter overrides applied (parse_scene above).
+SceneDesc load_scene(const std::string& name_or_file, std::span<const SceneOverride> overrides);
+
+/// Reads one `--set` argument, "KEY=VALUE" (split at the first '='; spaces around KEY are dropped):
+/// throws cariesim::Error "--set 'ARG': ..." when there is no '=' or KEY is not a path
+/// (a name, then `.name` or `[index]` steps: "lesions[0].material.k_c").
+SceneOverride parse_override(std::string_view assignment);
+
+/// The scene text `yaml` with `overrides` placed in its document (for what is stored as text: a study
+/// trial's scene). The overridden scene is checked first (parse_scene, whose located errors it
+/// throws); comments and layout are not kept (yaml-cpp re-emits the document).
+std::string override_scene_text(std::string_view yaml, const std::filesystem::path& origin,
+                                std::span<const SceneOverride> overrides);
 
 /// Names of the built-in scenes, the default ("oral-cavity") first.
 std::vector<std::string> builtin_scene_names();

@@ -97,12 +97,23 @@ struct LesionDesc {
   Material material;
 };
 
+/// One parameter override (`--set KEY=VALUE`, Python's Scene.with_overrides): the node at `key` in the
+/// scene's YAML document is replaced by `value` before the document is read, so the result passes the
+/// same checks as the file (docs/scene-format.md, "Overrides").
+struct SceneOverride {
+  std::string key;    ///< a path into the document: "lesions[0].material.k_c", "device.max_force"
+  std::string value;  ///< YAML text of the new node: "0.4", "rigid", "{gradient: {top: 2, bottom: 6}}"
+
+  friend bool operator==(const SceneOverride&, const SceneOverride&) = default;
+};
+
 /// A parsed, validated scene.
 struct SceneDesc {
-  std::string name;          ///< scene name (the file's `name`, else its stem)
-  std::string description;   ///< free text
-  std::string origin;        ///< the file path or "builtin:NAME"
-  uint64_t source_hash = 0;  ///< hash of the YAML text
+  std::string name;                      ///< scene name (the file's `name`, else its stem)
+  std::string description;               ///< free text
+  std::string origin;                    ///< the file path or "builtin:NAME"
+  uint64_t source_hash = 0;              ///< hash of the YAML text (and of the overrides, when there are any)
+  std::vector<SceneOverride> overrides;  ///< applied to the text before it was read, in order
   std::vector<ObjectDesc> objects;
   std::vector<LesionDesc> lesions;
   ExplorerParams tool;            ///< the dental explorer

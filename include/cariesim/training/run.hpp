@@ -31,6 +31,7 @@
 
 #include "cariesim/common/math.hpp"
 #include "cariesim/render/model.hpp"
+#include "cariesim/scene/scene_desc.hpp"
 #include "cariesim/training/study.hpp"
 
 namespace cariesim::training {
@@ -58,6 +59,9 @@ struct RunOptions {
   /// abandon_trial; a crash leaves kSeedNotWritten. (The trial's recording is held in memory by its
   /// Session, RecorderOptions::hold_until_stop.)
   bool hide_case_while_running = false;
+  /// Parameter overrides placed into every trial's scene (`--set`, docs/scene-format.md,
+  /// "Overrides"); the trial's scene text holds them, so its recording and scores see that scene.
+  std::vector<SceneOverride> overrides;
 };
 
 /// trials.seed of a trial that runs in trainee mode (RunOptions::hide_case_while_running) and has
