@@ -10,7 +10,10 @@
 // Test-only functions (standin_hd_*) move the hand, set buttons, inject errors, configure the device
 // and read back the force in HD's units. CARIESIM_STANDIN_HD=circle makes the hand trace a circle (and
 // "buttons" in it presses buttons 0 and 1 in turn) (20 mm radius, 0.5 Hz, in the x-z plane) so that `cariesim
-// servo --device touch` moves.
+// servo --device touch` moves; "unplug-at-Ts" in it pulls the cable T s of scheduler time after the
+// device opened and "replug-at-Ts" plugs it back (standin_hd_unplug does the same from a test).
+// Unplugged, every frame raises HD_COMM_ERROR and the motors render nothing; the handle stays dead
+// until hdDisableDevice, and hdInitDevice finds no device (HD_DEVICE_FAULT) until it is plugged back.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -90,6 +93,12 @@ struct Standin {
   HDerror inject_code = kSuccess;
   int inject_internal = 0;
   int inject_frames = 0;
+  bool unplugged = false;  // the cable pulled
+  bool dead = false;       // the open handle was unplugged: it stays dead until hdDisableDevice
+  double unplug_at = -1.0;  // s of scheduler time (CARIESIM_STANDIN_HD=...unplug-at-Ts)
+  double replug_at = -1.0;
+  bool unplug_fired = false;
+  HHD next_handle_id = 1;
   // Scheduler.
   unsigned long rate = 1000;
   std::vector<Scheduled> scheduled;
@@ -125,6 +134,12 @@ void simulate(Standin& s, double dt) {
     s.hand[2] = 20.0 * std::sin(phase);
   }
   if (s.press_buttons) s.buttons = 1 << (static_cast<int>(s.time * 4.0) % 2);
+  if (s.unplug_at >= 0.0 && !s.unplug_fired && s.time >= s.unplug_at) {
+    s.unplug_fired = true;
+    s.unplugged = true;
+    s.dead = s.open;
+  }
+  if (s.replug_at >= 0.0 && s.unplug_fired && s.unplugged && s.time >= s.replug_at) s.unplugged = false;
   const int steps = std::clamp(static_cast<int>(std::ceil(dt / kSubstep)), 1, 1000);
   const double h = dt / steps;
   for (int k = 0; k < steps; ++k)
@@ -197,6 +212,14 @@ HHD hdInitDevice(HDstring config_name) {
   const char* env = std::getenv("CARIESIM_STANDIN_HD");
   s.circle = env != nullptr && std::strstr(env, "circle") != nullptr;
   s.press_buttons = env != nullptr && std::strstr(env, "buttons") != nullptr;
+  if (!s.unplug_fired && env != nullptr) {
+    if (const char* at = std::strstr(env, "unplug-at-")) s.unplug_at = s.time + std::atof(at + 10);
+    if (const char* at = std::strstr(env, "replug-at-")) s.replug_at = s.time + std::atof(at + 10);
+  }
+  if (s.unplugged) {
+    push_error(s, kDeviceFault);
+    return kInvalidHandle;
+  }
   if (s.open) {
     push_error(s, kDeviceAlreadyInitiated);
     return kInvalidHandle;
@@ -214,7 +237,8 @@ HHD hdInitDevice(HDstring config_name) {
     return kInvalidHandle;
   }
   s.open = true;
-  s.handle = 1;
+  s.dead = false;
+  s.handle = s.next_handle_id++;
   s.force_output = true;  // HD enables force output at initialisation
   s.frame_depth = 0;
   return s.handle;
@@ -228,6 +252,7 @@ void hdDisableDevice(HHD device) {
     return;
   }
   s.open = false;
+  s.dead = false;
   for (double& f : s.out_force) f = 0.0;
   for (double& t : s.out_torque) t = 0.0;
 }
@@ -245,6 +270,7 @@ void hdBeginFrame(HHD device) {
     push_error(s, kBadHandle);
     return;
   }
+  if (s.frame_depth == 0 && s.dead) push_error(s, kCommError);
   if (s.frame_depth == 0 && s.inject_frames > 0) {
     --s.inject_frames;
     push_error(s, s.inject_code, s.inject_internal);
@@ -264,7 +290,14 @@ void hdEndFrame(HHD device) {
     ++s.frame_violations;
     return;
   }
-  if (--s.frame_depth == 0) commit_forces(s);
+  if (--s.frame_depth == 0) {
+    if (s.dead) {
+      for (double& f : s.out_force) f = 0.0;  // no motor current through a pulled cable
+      for (double& t : s.out_torque) t = 0.0;
+    } else {
+      commit_forces(s);
+    }
+  }
 }
 
 HDErrorInfo hdGetError() {
@@ -520,6 +553,8 @@ void standin_hd_reset() {
   s.time = 0.0;
   s.errors.clear();
   s.inject_frames = 0;
+  s.unplugged = s.dead = s.unplug_fired = false;
+  s.unplug_at = s.replug_at = -1.0;
   s.rate = 1000;
   s.scheduled.clear();
   s.ticks = 0;
@@ -625,6 +660,18 @@ int standin_hd_force_output_enabled() {
   Standin& s = state();
   std::lock_guard<std::mutex> lock(s.mutex);
   return s.force_output ? 1 : 0;
+}
+
+// Pulls the cable (unplug != 0) or plugs it back (0).
+void standin_hd_unplug(int unplug) {
+  Standin& s = state();
+  std::lock_guard<std::mutex> lock(s.mutex);
+  s.unplugged = unplug != 0;
+  if (s.unplugged) {
+    s.dead = s.open;
+    for (double& f : s.out_force) f = 0.0;
+    for (double& t : s.out_torque) t = 0.0;
+  }
 }
 
 int standin_hd_is_open() {
