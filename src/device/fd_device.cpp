@@ -9,10 +9,10 @@
 #include <array>
 #include <atomic>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <numbers>
-#include <chrono>
 #include <string>
 #include <thread>
 #include <utility>

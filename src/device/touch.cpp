@@ -273,7 +273,7 @@ class TouchDevice final : public HardwareDevice, public DeviceClock {
   uint32_t pending_faults_ = 0;  // HardwareFault bits of errors since the last read
   uint32_t cycle_faults_ = 0;    // the faults of this cycle's read: its write renders no force
   bool force_on_ = false;
-  int comm_errors_ = 0;          // readings in a row with a communication error
+  int comm_errors_ = 0;            // readings in a row with a communication error
   bool lose_after_frame_ = false;  // lost inside the servo callback: flagged once its frame ends
   // The device lost: set by the servo thread, which then makes no HD call on it; cleared by the
   // reopen thread once the device is open again (force off). awaiting_calibration_: reopened but

@@ -482,9 +482,8 @@ TEST_F(TouchTest, ADeviceBackButUncalibratedSaysSoUntilTheStylusIsInTheInkwell) 
   EXPECT_FALSE(lost.valid);
   // It lost its calibration meanwhile (powered off and on): back, its readings say so, force off.
   standin.set_calibration(hd::kCalibrationNeedsManualInput);
-  const HardwareReading back = wait_reading(servo, [](const HardwareReading& r) {
-    return (r.faults & kHardwareLost) == 0 && r.faults != 0;
-  });
+  const HardwareReading back = wait_reading(
+      servo, [](const HardwareReading& r) { return (r.faults & kHardwareLost) == 0 && r.faults != 0; });
   EXPECT_EQ(back.faults, static_cast<uint32_t>(kHardwareNotCalibrated));
   EXPECT_FALSE(back.valid);
   servo.wait_ticks(20);

@@ -63,7 +63,7 @@ struct Dev {
   double force[3] = {0, 0, 0}, torque[3] = {0, 0, 0}, gripper = 0;  // N, N·m, N as commanded
   int error_code = 0, error_calls = 0;  // injected: the next `error_calls` calls fail (< 0: all)
   int autoinit_count = 0;
-  bool unplugged = false;  // standin_fd_unplug: every call fails with DHD_ERROR_COM, opening finds none
+  bool unplugged = false;    // standin_fd_unplug: every call fails with DHD_ERROR_COM, opening finds none
   bool dead_handle = false;  // open when unplugged: the handle stays dead until dhdClose
 };
 

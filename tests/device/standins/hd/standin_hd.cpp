@@ -88,13 +88,13 @@ struct Standin {
   int buttons = 0;
   bool circle = false;
   bool press_buttons = false;  // CARIESIM_STANDIN_HD=...buttons: buttons 0 and 1 in turn, 0.25 s each
-  double time = 0.0;  // s, scheduler time
+  double time = 0.0;           // s, scheduler time
   std::vector<HDErrorInfo> errors;
   HDerror inject_code = kSuccess;
   int inject_internal = 0;
   int inject_frames = 0;
-  bool unplugged = false;  // the cable pulled
-  bool dead = false;       // the open handle was unplugged: it stays dead until hdDisableDevice
+  bool unplugged = false;   // the cable pulled
+  bool dead = false;        // the open handle was unplugged: it stays dead until hdDisableDevice
   double unplug_at = -1.0;  // s of scheduler time (CARIESIM_STANDIN_HD=...unplug-at-Ts)
   double replug_at = -1.0;
   bool unplug_fired = false;
