@@ -9,10 +9,12 @@
 #include <array>
 #include <atomic>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <numbers>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include "cariesim/common/error.hpp"
@@ -34,6 +36,11 @@ constexpr const char* kUdevHint =
     "(\"Force Dimension\": /etc/udev/rules.d/99-forcedimension.rules), then unplug and plug it again";
 constexpr double kMmPerM = 1000.0;
 constexpr int kMaxIndex = 15;  // an argument up to this is an index, above it a serial number
+// Communication errors in this many reads in a row (0.1 s at 1 kHz) mean the device is gone.
+constexpr int kLostAfter = 100;
+// How often the reopen thread looks for a lost device, and tries to open it again.
+constexpr std::chrono::milliseconds kReopenPoll{50};
+constexpr std::chrono::milliseconds kReopenRetry{250};
 
 // What the backend knows of each model: data-sheet figures, conservative where the sheets differ.
 struct Model {
@@ -228,14 +235,16 @@ class FdDevice final : public HardwareDevice {
   void enable_force(bool on) override;
 
  private:
-  [[nodiscard]] char id() const { return static_cast<char>(id_); }
+  [[nodiscard]] char id() const { return static_cast<char>(id_.load(std::memory_order_relaxed)); }
   [[noreturn]] void throw_open_error(int count) const;
+  void reopen_loop();
+  bool reopen();
   // Zeroes the output now (after an SDK error) and remembers the fault for the next reading.
   void fault(uint32_t bits);
 
   std::shared_ptr<const FdSdk> sdk_;
   Target target_;
-  int id_ = -1;  // the SDK's device ID, -1 when closed
+  std::atomic<int> id_{-1};  // the SDK's device ID, -1 when closed
   Model model_ = kModels.back();
   HardwareInfo info_;
   bool drd_open_ = false;
@@ -244,11 +253,17 @@ class FdDevice final : public HardwareDevice {
   bool force_on_ = false;  // dhdEnableForce(DHD_ON) done
   uint32_t pending_ = 0;   // servo thread: faults met in write()/enable_force(), for the next read()
   bool faulted_ = false;   // servo thread: the last reading carried a fault; write() sends zero
+  int comm_errors_ = 0;    // servo thread: reads in a row with a communication error
+  // The device lost: set by the servo thread, which then leaves the SDK alone; cleared by the reopen
+  // thread once it has closed the dead handle and opened the device again (force off).
+  std::atomic<bool> lost_{false};
+  std::atomic<bool> stopping_{false};
+  std::thread reopener_;
 };
 
 // Opens by index or serial, reads what the device is and switches its force off.
 void FdDevice::open() {
-  if (id_ >= 0) return;
+  if (id_ >= 0 || reopener_.joinable()) return;
   const FdSdk& sdk = *sdk_;
   const int count = sdk.get_device_count();
   const int opened =
@@ -288,6 +303,64 @@ void FdDevice::open() {
   homed_ = false;
   pending_ = 0;
   faulted_ = false;
+  comm_errors_ = 0;
+  lost_.store(false);
+  stopping_.store(false);
+  reopener_ = std::thread([this] { reopen_loop(); });
+}
+
+// The reopen thread: the servo thread only flags a lost device (it must not block); here the dead
+// handle is closed and the device opened again (dhdClose, then dhdOpenID / dhdOpenSerial) until it
+// answers. Until lost_ is cleared the servo thread makes no SDK call, so the two never share the SDK.
+void FdDevice::reopen_loop() {
+  bool reported = false;
+  while (!stopping_.load()) {
+    std::this_thread::sleep_for(lost_.load(std::memory_order_acquire) ? kReopenRetry : kReopenPoll);
+    if (stopping_.load() || !lost_.load(std::memory_order_acquire)) continue;
+    if (!reported) spdlog::warn("fd: {} lost; force off, reopening it when it answers", info_.model);
+    reported = true;
+    if (reopen()) {
+      spdlog::info("fd: {} is back; force returns once the tool is out of contact", info_.model);
+      reported = false;
+      lost_.store(false, std::memory_order_release);
+    }
+  }
+}
+
+// Closes the dead handle, opens the device again (the same model), force off, homing checked.
+bool FdDevice::reopen() {
+  const FdSdk& sdk = *sdk_;
+  const int old = id_.load(std::memory_order_relaxed);
+  if (old >= 0) {
+    if (drd_open_) sdk.drd_close(static_cast<char>(old));
+    sdk.close(static_cast<char>(old));
+    drd_open_ = false;
+    id_.store(-2, std::memory_order_relaxed);  // closed, waiting for the device (not -1: not close()d)
+  }
+  const int opened =
+      target_.by_serial ? sdk.open_serial(target_.value) : sdk.open_id(static_cast<char>(target_.value));
+  if (opened < 0) return false;
+  if (sdk.get_system_type(static_cast<char>(opened)) != model_.type) {
+    sdk.close(static_cast<char>(opened));
+    return false;  // another device in its place: not the one this run was set up for
+  }
+  id_.store(opened, std::memory_order_relaxed);
+  sdk.set_force_and_torque(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, id());
+  sdk.enable_force(fd::kOff, id());
+  force_on_ = false;
+  // Homing survives a USB reconnection on a powered device; a power cycle loses it: then the
+  // readings say "calibration needed" and force stays off (docs/devices.md, "Force Dimension").
+  bool homed = true;
+  if (sdk.has_drd()) {
+    drd_open_ = sdk.drd_open_id(id()) >= 0;
+    homed = drd_open_ && sdk.drd_is_initialized(id());
+    if (drd_open_ && model_.type != fd::kDeviceFalcon) sdk.drd_stop(false, id());
+  }
+  homed_ = homed;
+  pending_ = homed ? 0u : static_cast<uint32_t>(kHardwareNotCalibrated);
+  faulted_ = true;
+  comm_errors_ = 0;
+  return true;
 }
 
 // Why the SDK could not open the device, in words a lab can act on.
@@ -325,6 +398,9 @@ void FdDevice::throw_open_error(int count) const {
 
 // Force off, then the SDK's handles closed; harmless when never opened or already closed.
 void FdDevice::close() {
+  stopping_.store(true);
+  if (reopener_.joinable()) reopener_.join();
+  if (id_ == -2) id_ = -1;  // lost and not reopened: nothing left to close
   if (id_ < 0) return;
   const FdSdk& sdk = *sdk_;
   sdk.set_force_and_torque(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, id());
@@ -391,8 +467,9 @@ void FdDevice::fault(uint32_t bits) {
 // error makes the reading invalid and zeroes the force in the same cycle.
 HardwareReading FdDevice::read() {
   HardwareReading r;
-  if (id_ < 0) {
+  if (id_.load(std::memory_order_relaxed) < 0 || lost_.load(std::memory_order_acquire)) {
     r.faults = kHardwareLost;
+    faulted_ = true;
     return r;
   }
   const FdSdk& sdk = *sdk_;
@@ -415,7 +492,19 @@ HardwareReading FdDevice::read() {
     r.angular_velocity = Vec3(x, y, z);
   }
   r.buttons = sdk.get_button_mask(id());
-  if (!ok) fault(faults_of(sdk.error_get_last()));
+  if (!ok) {
+    const uint32_t bits = faults_of(sdk.error_get_last());
+    fault(bits);
+    // Gone (no device) or a communication error that persists: the reopen thread takes over.
+    comm_errors_ = (bits & kHardwareCommunication) != 0 ? comm_errors_ + 1 : 0;
+    if ((bits & kHardwareLost) != 0 || comm_errors_ >= kLostAfter) {
+      force_on_ = false;
+      pending_ |= kHardwareLost;
+      lost_.store(true, std::memory_order_release);
+    }
+  } else {
+    comm_errors_ = 0;
+  }
   if (!r.pose.finite() || !r.velocity.allFinite() || !r.angular_velocity.allFinite()) fault(kHardwareOther);
   r.faults = std::exchange(pending_, 0u);
   r.valid = r.faults == 0;
@@ -426,7 +515,7 @@ HardwareReading FdDevice::read() {
 // N and N·mm in the device frame -> N and N·m; zero after a faulty reading; the torque only on a
 // device with active rotations, the gripper's force (zero) on a device with an active gripper.
 void FdDevice::write(const Vec3& force, const Vec3& torque) {
-  if (id_ < 0) return;
+  if (id_.load(std::memory_order_relaxed) < 0 || lost_.load(std::memory_order_acquire)) return;
   Vec3 f = force;
   Vec3 t = model_.dof_out == 6 ? Vec3(torque / kMmPerM) : Vec3::Zero();
   if (faulted_ || !f.allFinite() || !t.allFinite()) {
@@ -442,7 +531,7 @@ void FdDevice::write(const Vec3& force, const Vec3& torque) {
 
 // dhdEnableForce; refused (force stays off) until the device is homed.
 void FdDevice::enable_force(bool on) {
-  if (id_ < 0) return;
+  if (id_.load(std::memory_order_relaxed) < 0 || lost_.load(std::memory_order_acquire)) return;
   if (on && !homed_) {
     pending_ |= kHardwareNotCalibrated;
     on = false;

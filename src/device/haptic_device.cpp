@@ -173,9 +173,16 @@ DeviceState HapticDevice::read(double now) {
 }
 
 void HapticDevice::write(const Vec3& force, const Vec3& torque) {
-  // A fault, an invalid reading or the clutch: no force this cycle.
+  // A fault, an invalid reading or the clutch: no force this cycle. A device lost (or needing
+  // calibration again after it came back) also has its force switch turned off: the backend reopens
+  // it with force off, and force returns only through the gate and the ramp below.
   if (!reading_valid_ || faults_ != 0 || clutch_held_) {
     hardware_->write(Vec3::Zero(), Vec3::Zero());
+    if (enabled_ && (faults_ & (kHardwareLost | kHardwareNotCalibrated)) != 0) {
+      hardware_->enable_force(false);
+      enabled_ = false;
+      force_on_.store(false, std::memory_order_relaxed);
+    }
     return;
   }
   // The force switch goes on once the device is ready and the tool out of contact (a small force).

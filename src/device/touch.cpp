@@ -1,17 +1,27 @@
 // The `touch` backend (docs/devices.md, "Touch"): OpenHaptics HD, loaded at run time, for the 3D Systems
 // Touch, Touch X, Omni, Desktop and Phantom Premium (3-DoF and 6-DoF force). HD owns the servo thread:
 // the device is its own DeviceClock, whose ticks are HD scheduler callbacks, each inside an HD frame.
+//
+// A device lost mid-run (unplugged, powered off) is reopened when it answers again. HD's scheduler
+// keeps running meanwhile, so the servo loop keeps its clock: its readings are invalid (kHardwareLost)
+// and it renders nothing. The servo callback only flags the loss (it must not block) and from then on
+// leaves the device alone; a thread of the backend's own does what HD has the application thread do,
+// hdDisableDevice on the dead handle and hdInitDevice until the device answers, and has the calibration
+// checked on the scheduler thread (hdScheduleSynchronous, as calibrate() does) before it hands the
+// device back to the servo callback by clearing an atomic flag.
 #include <spdlog/spdlog.h>
 
 #include <array>
 #include <atomic>
 #include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <numbers>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -30,6 +40,11 @@ constexpr const char* kInstall =
     "TouchDriver package; see docs/devices.md, \"Touch\")";
 constexpr int kOldestMajor = 3;  // the HD functions used here are those of OpenHaptics 3.0 and later
 constexpr double kDefaultRateHz = 1000.0;
+// Communication errors in this many readings in a row (0.1 s at 1 kHz) mean the device is gone.
+constexpr int kLostAfter = 100;
+// How often the reopen thread looks for a lost device, and tries to open it (or its calibration) again.
+constexpr std::chrono::milliseconds kReopenPoll{50};
+constexpr std::chrono::milliseconds kReopenRetry{250};
 
 // The library names the dynamic loader is asked for, newest first after the unversioned link.
 const std::vector<std::string>& library_names() {
@@ -232,6 +247,10 @@ class TouchDevice final : public HardwareDevice, public DeviceClock {
   hd::HHD init(const char* name, hd::HDErrorInfo& error);
   void read_info();
   void run_calibration();
+  Calibration check_calibration();
+  void lose();
+  void reopen_loop();
+  bool reopen();
 
   std::string name_;
   SharedLibrary library_;
@@ -254,6 +273,15 @@ class TouchDevice final : public HardwareDevice, public DeviceClock {
   uint32_t pending_faults_ = 0;  // HardwareFault bits of errors since the last read
   uint32_t cycle_faults_ = 0;    // the faults of this cycle's read: its write renders no force
   bool force_on_ = false;
+  int comm_errors_ = 0;            // readings in a row with a communication error
+  bool lose_after_frame_ = false;  // lost inside the servo callback: flagged once its frame ends
+  // The device lost: set by the servo thread, which then makes no HD call on it; cleared by the
+  // reopen thread once the device is open again (force off). awaiting_calibration_: reopened but
+  // not calibrated yet (the readings say so, force stays off).
+  std::atomic<bool> lost_{false};
+  std::atomic<bool> awaiting_calibration_{false};
+  std::atomic<bool> stop_reopen_{false};
+  std::thread reopener_;
 };
 
 // The first error on HD's error stack; the rest are drained (open and close, control thread).
@@ -321,7 +349,82 @@ void TouchDevice::open() {
   (void)first_error();
   force_on_ = false;
   pending_faults_ = 0;
+  comm_errors_ = 0;
+  lose_after_frame_ = false;
+  lost_.store(false);
+  awaiting_calibration_.store(false);
+  stop_reopen_.store(false);
   open_ = true;
+  reopener_ = std::thread([this] { reopen_loop(); });
+}
+
+// The reopen thread: waits for the servo thread to flag the device lost, then reopens it; once
+// reopened but not calibrated, checks the calibration again until it is.
+void TouchDevice::reopen_loop() {
+  bool reported = false;
+  while (!stop_reopen_.load()) {
+    const bool lost = lost_.load(std::memory_order_acquire);
+    std::this_thread::sleep_for(lost || awaiting_calibration_.load() ? kReopenRetry : kReopenPoll);
+    if (stop_reopen_.load()) break;
+    if (lost_.load(std::memory_order_acquire)) {
+      if (!reported) spdlog::warn("touch: {} lost; force off, reopening it when it answers", info_.model);
+      reported = true;
+      if (!reopen()) continue;
+      reported = false;
+      spdlog::info("touch: {} is back", info_.model);
+      lost_.store(false, std::memory_order_release);
+    } else if (awaiting_calibration_.load() && check_calibration().readiness == Readiness::Ready) {
+      awaiting_calibration_.store(false);
+    }
+  }
+}
+
+// hdDisableDevice on the dead handle, then hdInitDevice (by name, else the default device) of the
+// same model; force off; the calibration checked. False while the device does not answer.
+bool TouchDevice::reopen() {
+  if (handle_ != hd::kInvalidHandle) {
+    api_.disable_device(handle_);
+    (void)first_error();
+    handle_ = hd::kInvalidHandle;
+  }
+  hd::HDErrorInfo error{};
+  hd::HHD handle = init(name_.empty() ? nullptr : name_.c_str(), error);
+  if (error.errorCode != hd::kSuccess && !name_.empty()) handle = init(nullptr, error);
+  if (error.errorCode != hd::kSuccess) return false;
+  api_.make_current_device(handle);
+  api_.disable(hd::kForceOutput);
+  const char* model = api_.get_string(hd::kDeviceModelType);
+  (void)first_error();
+  if (model == nullptr || (*model != '\0' && info_.model != model)) {
+    api_.disable_device(handle);  // another device in its place: not the one this run was set up for
+    (void)first_error();
+    return false;
+  }
+  handle_ = handle;
+  const Calibration calibration = check_calibration();
+  awaiting_calibration_.store(calibration.readiness != Readiness::Ready);
+  return true;
+}
+
+// calibrate()'s check from the reopen thread: on the scheduler thread while the clock runs.
+Calibration TouchDevice::check_calibration() {
+  const std::lock_guard lock(clock_mutex_);
+  if (running_.load())
+    api_.schedule_synchronous(&TouchDevice::calibration_callback, this, hd::kDefaultSchedulerPriority);
+  else
+    run_calibration();
+  calibrated_ = calibration_.readiness == Readiness::Ready;
+  return calibration_;
+}
+
+// The servo thread's side of a loss: no force from now on, and no HD call on the device.
+void TouchDevice::lose() {
+  force_on_ = false;
+  comm_errors_ = 0;
+  if (in_servo_frame)
+    lose_after_frame_ = true;  // the callback ends its frame first
+  else
+    lost_.store(true, std::memory_order_release);
 }
 
 // The device's identity, degrees of freedom, limits (HD: N, N/mm, mN·m = N·mm) and workspace (mm).
@@ -390,11 +493,15 @@ void TouchDevice::read_info() {
 
 // Switches the force off, stops the scheduler and releases the device.
 void TouchDevice::close() {
+  stop_reopen_.store(true);
+  if (reopener_.joinable()) reopener_.join();
   if (!open_) return;
   stop_clock();
-  api_.make_current_device(handle_);
-  api_.disable(hd::kForceOutput);
-  api_.disable_device(handle_);
+  if (handle_ != hd::kInvalidHandle) {  // invalid: lost, and not reopened
+    api_.make_current_device(handle_);
+    api_.disable(hd::kForceOutput);
+    api_.disable_device(handle_);
+  }
   (void)first_error();
   handle_ = hd::kInvalidHandle;
   force_on_ = false;
@@ -454,7 +561,7 @@ void TouchDevice::run_calibration() {
 // since the last reading become its faults.
 HardwareReading TouchDevice::read() {
   HardwareReading reading;
-  if (!open_) {
+  if (!open_ || lost_.load(std::memory_order_acquire) || lose_after_frame_) {
     reading.faults = kHardwareLost;
     cycle_faults_ = reading.faults;
     return reading;
@@ -485,6 +592,14 @@ HardwareReading TouchDevice::read() {
   reading.buttons = static_cast<uint32_t>(buttons) & 0xFu;
   if (!reading.pose.finite() || !reading.velocity.allFinite() || !reading.angular_velocity.allFinite())
     pending_faults_ |= kHardwareOther;
+  if (awaiting_calibration_.load(std::memory_order_relaxed)) pending_faults_ |= kHardwareNotCalibrated;
+  // Gone (HD_DEVICE_FAULT, HD_BAD_HANDLE) or a communication error that persists: the reopen
+  // thread takes over.
+  comm_errors_ = (pending_faults_ & kHardwareCommunication) != 0 ? comm_errors_ + 1 : 0;
+  if ((pending_faults_ & kHardwareLost) != 0 || comm_errors_ >= kLostAfter) {
+    pending_faults_ |= kHardwareLost;
+    lose();
+  }
   reading.faults = pending_faults_;
   reading.valid = reading.faults == 0;
   cycle_faults_ = reading.faults;
@@ -497,7 +612,7 @@ HardwareReading TouchDevice::read() {
 // forces inside a frame: the servo callback's, or (the clock stopped, e.g. a last zero wrench at
 // stop) one of its own; while the clock runs, only the servo callback writes.
 void TouchDevice::write(const Vec3& force, const Vec3& torque) {
-  if (!open_) return;
+  if (!open_ || lost_.load(std::memory_order_acquire)) return;
   if (!in_servo_frame) {
     if (running_.load()) return;
     api_.begin_frame(handle_);
@@ -524,7 +639,7 @@ void TouchDevice::write(const Vec3& force, const Vec3& torque) {
 
 // hdEnable / hdDisable(HD_FORCE_OUTPUT); never on before a calibration that came out Ready.
 void TouchDevice::enable_force(bool on) {
-  if (!open_) return;
+  if (!open_ || lost_.load(std::memory_order_acquire) || lose_after_frame_) return;
   const bool want = on && calibrated_.load();
   if (want == force_on_) return;
   if (want)
@@ -539,13 +654,23 @@ void TouchDevice::enable_force(bool on) {
 hd::HDCallbackCode TouchDevice::servo_callback(void* self) {
   auto* device = static_cast<TouchDevice*>(self);
   if (device->stopping_.load(std::memory_order_acquire)) return hd::kCallbackDone;
-  device->api_.begin_frame(device->handle_);
-  device->collect_faults();
+  // A lost device is the reopen thread's: the cycle runs (its reading says lost) without a frame.
+  const bool lost = device->lost_.load(std::memory_order_acquire);
+  if (!lost) {
+    device->api_.begin_frame(device->handle_);
+    device->collect_faults();
+  }
   in_servo_frame = true;
   device->tick_(device->context_);
   in_servo_frame = false;
-  device->api_.end_frame(device->handle_);
-  device->collect_faults();
+  if (!lost) {
+    device->api_.end_frame(device->handle_);
+    device->collect_faults();
+  }
+  if (device->lose_after_frame_) {
+    device->lose_after_frame_ = false;
+    device->lost_.store(true, std::memory_order_release);
+  }
   return hd::kCallbackContinue;
 }
 

@@ -3,10 +3,12 @@
 // scheduler, the Touch's force limit in force, and reports the device's counters; with no OpenHaptics library
 // the command fails naming what it tried and what to install; a profile's clutch button held while the
 // hand moves keeps the recorded tool still, and its release re-indexes without a jump; in `cariesim
-// study run --device touch` the profile's buttons mark and end a diagnosis case.
+// study run --device touch` the profile's buttons mark and end a diagnosis case. The Touch unplugged
+// mid-run (CARIESIM_STANDIN_HD=circle,unplug-at-1s) ends the run cleanly, its record closed.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -17,6 +19,7 @@
 #include "cariesim/device/safety.hpp"
 #include "cariesim/record/recorder.hpp"
 #include "cariesim/render/interaction.hpp"
+#include "servo/servo_support.hpp"
 #include "support/command.hpp"
 
 namespace cariesim {
@@ -33,6 +36,28 @@ TEST(TouchCommand, ServoRunsClockedByTheStandinsScheduler) {
   EXPECT_THAT(r.err, HasSubstr("limits: 3.3 N, "));
   EXPECT_THAT(r.err, HasSubstr("real-time: clocked by the device's scheduler at 1000 Hz"));
   EXPECT_THAT(r.err, HasSubstr("device touch: torque_dropped="));
+}
+
+class TouchUnplugged : public test::ScratchTest {
+ protected:
+  TouchUnplugged() : ScratchTest("cariesim_touch_cmd_") {}
+};
+
+TEST_F(TouchUnplugged, UnpluggedMidRunTheRunEndsCleanlyWithItsRecord) {
+  const std::filesystem::path db = dir_ / "unplugged.db";
+  const auto started = std::chrono::steady_clock::now();
+  const test::CommandResult r = test::run_cariesim(
+      "servo --scene friction-block --device touch --duration 60 --no-realtime --record '" + db.string() +
+          "'",
+      std::string("CARIESIM_HD_LIBRARY=") + CARIESIM_STANDIN_HD + " CARIESIM_STANDIN_HD=circle,unplug-at-1s");
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("servo: the device was lost ("));
+  EXPECT_THAT(r.err, HasSubstr("device lost); ending the run"));
+  EXPECT_LT(took, 30.0) << "the run went on for its whole duration";
+  const Recording rec = load_recording(db);
+  EXPECT_FALSE(rec.info.ended_at.empty());
+  EXPECT_GT(rec.samples.size(), 500u);
 }
 
 TEST(TouchCommand, WithoutOpenHapticsTheCommandSaysWhatItTriedAndWhatToInstall) {

@@ -66,6 +66,7 @@ struct StandIn {
   int (*autoinit_count)(int) = nullptr;
   void (*set_busy)(int, int) = nullptr;
   void (*deny_access)(int) = nullptr;
+  void (*unplug)(int, int) = nullptr;
 
   explicit StandIn(const char* path) {
     handle = dlopen(path, RTLD_NOW | RTLD_LOCAL);
@@ -81,6 +82,7 @@ struct StandIn {
     resolve(autoinit_count, "standin_fd_autoinit_count");
     resolve(set_busy, "standin_fd_set_busy");
     resolve(deny_access, "standin_fd_deny_access");
+    resolve(unplug, "standin_fd_unplug");
   }
   ~StandIn() { dlclose(handle); }
   StandIn(const StandIn&) = delete;
@@ -282,20 +284,21 @@ TEST_F(FdDeviceTest, AnSdkErrorMidRunZeroesTheForceInTheSameCycle) {
   EXPECT_TRUE(device->read().valid);
   device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
   EXPECT_EQ(sdk_.last(0).force, Vec3(0.0, 0.0, 3.0));
-  // Each error code's fault bit.
-  const std::pair<int, uint32_t> codes[] = {{fd::kErrorCom, kHardwareCommunication},
-                                            {fd::kErrorNoDeviceFound, kHardwareLost},
-                                            {fd::kErrorDeviceNotReady, kHardwareNotCalibrated},
-                                            {fd::kErrorGeometry, kHardwareOther}};
-  for (const auto& [code, bit] : codes) {
-    sdk_.inject_error(0, code, 1);
-    EXPECT_EQ(device->read().faults, bit) << "DHD error " << code;
-  }
   // An error in write(): zero at once and the next reading carries it.
   sdk_.inject_error(0, fd::kErrorCom, 1);
   device->write(Vec3(1.0, 0.0, 0.0), Vec3::Zero());
   EXPECT_EQ(sdk_.last(0).force, Vec3::Zero());
   EXPECT_EQ(device->read().faults, static_cast<uint32_t>(kHardwareCommunication));
+  // Each error code's fault bit ("no device" last: the backend then takes the device for lost and
+  // reopens it, see AnUnpluggedDeviceIsReopenedWhenItIsPluggedBackForceOff).
+  const std::pair<int, uint32_t> codes[] = {{fd::kErrorCom, kHardwareCommunication},
+                                            {fd::kErrorDeviceNotReady, kHardwareNotCalibrated},
+                                            {fd::kErrorGeometry, kHardwareOther},
+                                            {fd::kErrorNoDeviceFound, kHardwareLost}};
+  for (const auto& [code, bit] : codes) {
+    sdk_.inject_error(0, code, 1);
+    EXPECT_EQ(device->read().faults, bit) << "DHD error " << code;
+  }
 }
 
 TEST_F(FdDeviceTest, ACableLostForGoodKeepsEveryReadingInvalid) {
@@ -306,6 +309,66 @@ TEST_F(FdDeviceTest, ACableLostForGoodKeepsEveryReadingInvalid) {
     EXPECT_FALSE(r.valid);
     EXPECT_NE(r.faults & kHardwareCommunication, 0u);
   }
+  EXPECT_FALSE(sdk_.last(0).on);
+}
+
+// Reads (one servo cycle each, 1 ms apart) until `done` holds of a reading or 3 s pass; that reading.
+template <class Done>
+HardwareReading read_until(HardwareDevice& device, Done done) {
+  HardwareReading r = device.read();
+  for (int i = 0; i < 3000 && !done(r); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    r = device.read();
+  }
+  return r;
+}
+
+TEST_F(FdDeviceTest, AnUnpluggedDeviceIsReopenedWhenItIsPluggedBackForceOff) {
+  auto device = ready();
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  ASSERT_TRUE(sdk_.last(0).on);
+  // Unplugged: the first reading is invalid and the motors are off; a communication error that
+  // persists becomes "device lost".
+  sdk_.unplug(0, 1);
+  HardwareReading r = device->read();
+  EXPECT_FALSE(r.valid);
+  EXPECT_NE(r.faults & kHardwareCommunication, 0u);
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  EXPECT_FALSE(sdk_.last(0).on);
+  r = read_until(*device, [](const HardwareReading& x) { return (x.faults & kHardwareLost) != 0; });
+  EXPECT_FALSE(r.valid);
+  EXPECT_EQ(r.faults & kHardwareLost, static_cast<uint32_t>(kHardwareLost));
+  for (int i = 0; i < 50; ++i) {
+    r = device->read();
+    EXPECT_FALSE(r.valid);
+    EXPECT_NE(r.faults & kHardwareLost, 0u);
+    device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_FALSE(sdk_.last(0).on);
+
+  // Plugged back: the reopen thread closes the dead handle and opens it again, force off; the
+  // readings are valid again and force returns only when it is enabled again.
+  sdk_.unplug(0, 0);
+  r = read_until(*device, [](const HardwareReading& x) { return x.valid; });
+  ASSERT_TRUE(r.valid) << describe_hardware_faults(r.faults);
+  EXPECT_EQ(sdk_.is_open(0), 1);
+  EXPECT_FALSE(sdk_.last(0).on);
+  device->enable_force(true);
+  device->write(Vec3(0.0, 0.0, 2.0), Vec3::Zero());
+  EXPECT_TRUE(sdk_.last(0).on);
+  EXPECT_EQ(sdk_.last(0).force, Vec3(0.0, 0.0, 2.0));
+  device->close();
+  EXPECT_EQ(sdk_.is_open(0), 0);
+}
+
+TEST_F(FdDeviceTest, ADeviceStillUnpluggedAtCloseClosesCleanly) {
+  auto device = ready();
+  sdk_.unplug(0, 1);
+  read_until(*device, [](const HardwareReading& x) { return (x.faults & kHardwareLost) != 0; });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the reopen thread closed the handle
+  device->close();
+  EXPECT_EQ(sdk_.is_open(0), 0);
   EXPECT_FALSE(sdk_.last(0).on);
 }
 
@@ -463,6 +526,61 @@ TEST_F(FdThroughTheFactory, AnSdkErrorZeroesTheForceInTheSameCycle) {
   EXPECT_EQ(sdk_.last(0).force, Vec3::Zero());
   device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
   EXPECT_EQ(sdk_.last(0).force, Vec3::Zero());
+  device->stop();
+}
+
+TEST_F(FdThroughTheFactory, UnpluggedAndBackTheForceReturnsThroughTheGateAndTheRamp) {
+  std::ofstream(profile_) << "ramp_time: 0.5\n";
+  auto device = make();
+  device->start();
+  const auto* haptic = dynamic_cast<const HapticDevice*>(device.get());
+  ASSERT_NE(haptic, nullptr);
+  double t = 0.0;
+  device->read(t);
+  device->write(Vec3::Zero(), Vec3::Zero());
+  t = 1.0;
+  device->read(t);
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  ASSERT_TRUE(sdk_.last(0).on);
+  ASSERT_NEAR(sdk_.last(0).force.norm(), 3.0, 1e-9);
+
+  // Unplugged: no force from the first cycle on; once lost, the force switch is off.
+  sdk_.unplug(0, 1);
+  t += 0.001;
+  EXPECT_FALSE(device->read(t).valid);
+  device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+  EXPECT_FALSE(sdk_.last(0).on);
+  for (int i = 0; i < 3000 && (haptic->status().faults & kHardwareLost) == 0; ++i) {
+    t += 0.001;
+    device->read(t);
+    device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_NE(haptic->status().faults & kHardwareLost, 0u);
+  EXPECT_FALSE(haptic->status().force_enabled);
+
+  // Back: valid readings; a large force waits, a small one passes the gate and ramps in.
+  sdk_.unplug(0, 0);
+  bool valid = false;
+  for (int i = 0; i < 3000 && !valid; ++i) {
+    t += 0.001;
+    valid = device->read(t).valid;
+    device->write(Vec3(0.0, 0.0, 3.0), Vec3::Zero());
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_TRUE(valid);
+  EXPECT_EQ(haptic->status().faults, 0u);
+  EXPECT_FALSE(sdk_.last(0).on);
+  EXPECT_FALSE(haptic->status().force_enabled);
+  t += 0.001;
+  device->read(t);
+  device->write(Vec3(0.0, 0.0, 0.2), Vec3::Zero());
+  EXPECT_TRUE(sdk_.last(0).on);
+  EXPECT_LT(sdk_.last(0).force.norm(), 0.01);
+  t += 0.25;
+  device->read(t);
+  device->write(Vec3(0.0, 0.0, 2.0), Vec3::Zero());
+  EXPECT_NEAR(sdk_.last(0).force.norm(), 1.0, 0.02);
   device->stop();
 }
 

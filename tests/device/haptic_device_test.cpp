@@ -212,6 +212,48 @@ TEST(HapticDevice, AFaultZeroesTheForceInTheSameCycle) {
   EXPECT_EQ(describe_hardware_faults(device.status().faults), "motors too warm");
 }
 
+TEST(HapticDevice, ADeviceLostAndBackReenablesForceOnlyThroughTheGateAndTheRamp) {
+  Hand hand = touch_hand();
+  HapticDevice device(std::make_unique<HandDevice>(hand), DeviceProfile{}, home());
+  device.start();
+  device.read(0.0);
+  device.write(Vec3::Zero(), Vec3::Zero());
+  device.read(5.0);
+  device.write(Vec3(1, 0, 0), Vec3::Zero());
+  ASSERT_TRUE(hand.force_enabled);
+  ASSERT_GT(hand.force.norm(), 0.5);
+
+  // Unplugged: zero force and the force switch off in the same cycle; the fault stays shown.
+  hand.reading.valid = false;
+  hand.reading.faults = kHardwareLost;
+  EXPECT_FALSE(device.read(5.001).valid);
+  device.write(Vec3(1, 0, 0), Vec3::Zero());
+  EXPECT_EQ(hand.force, Vec3::Zero());
+  EXPECT_FALSE(hand.force_enabled);
+  EXPECT_FALSE(device.status().force_enabled);
+  EXPECT_EQ(device.status().faults, static_cast<uint32_t>(kHardwareLost));
+
+  // Back (the backend reopened it, force off): a large force waits for the gate.
+  hand.reading.valid = true;
+  hand.reading.faults = 0;
+  EXPECT_TRUE(device.read(6.0).valid);
+  device.write(Vec3(1, 0, 0), Vec3::Zero());
+  EXPECT_FALSE(hand.force_enabled);
+  EXPECT_EQ(hand.force, Vec3::Zero());
+  EXPECT_EQ(device.status().faults, 0u);
+  // A small force passes the gate; the force ramps in from zero over ramp_time.
+  device.read(6.001);
+  device.write(Vec3(0.2, 0, 0), Vec3::Zero());
+  EXPECT_TRUE(hand.force_enabled);
+  EXPECT_LT(hand.force.norm(), 0.01);
+  device.read(6.001 + 0.25);
+  device.write(Vec3(1, 0, 0), Vec3::Zero());
+  EXPECT_NEAR(hand.force.norm(), 0.5, 0.01);
+  device.read(6.001 + 1.0);
+  device.write(Vec3(1, 0, 0), Vec3::Zero());
+  EXPECT_NEAR(hand.force.norm(), 1.0, 1e-9);
+}
+
 TEST(HapticDevice, SustainedForceIsHeldToTheContinuousLimit) {
   Hand hand = touch_hand();  // 3.3 N peak, 0.88 N continuous
   DeviceProfile profile;

@@ -21,6 +21,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/factory.hpp"
+#include "cariesim/device/haptic_device.hpp"
 #include "cariesim/device/hardware_backends.hpp"
 #include "device/touch_api.hpp"
 #include "support/alloc_counter.hpp"
@@ -51,6 +52,7 @@ struct Standin {
     is_open = fn<int (*)()>("standin_hd_is_open");
     frame_violations = fn<int (*)()>("standin_hd_frame_violations");
     on_scheduler_thread = fn<int (*)()>("standin_hd_on_scheduler_thread");
+    unplug = fn<void (*)(int)>("standin_hd_unplug");
     set_scheduler_rate = fn<void (*)(hd::HDulong)>("hdSetSchedulerRate");
   }
   ~Standin() { dlclose(handle); }
@@ -89,6 +91,7 @@ struct Standin {
   int (*is_open)();
   int (*frame_violations)();
   int (*on_scheduler_thread)();
+  void (*unplug)(int);
   void (*set_scheduler_rate)(hd::HDulong);
 };
 
@@ -377,8 +380,7 @@ TEST_F(TouchTest, AnHdErrorMidRunZeroesTheForceInTheSameCycle) {
       {hd::kExceededMaxVelocity, kHardwareVelocityExceeded},
       {hd::kExceededMaxForce, kHardwareForceExceeded},
       {hd::kCommError, kHardwareCommunication},
-      {hd::kDeviceFault, kHardwareLost},
-  };
+  };  // HD_DEVICE_FAULT (the device lost) is AnUnpluggedDeviceIsReopenedWhenItAnswersAgain's
   Servo servo;
   auto device = start(servo);
   ASSERT_EQ(device->calibrate().readiness, Readiness::Ready);
@@ -405,6 +407,95 @@ TEST_F(TouchTest, AnHdErrorMidRunZeroesTheForceInTheSameCycle) {
     }
     EXPECT_EQ(faulted, 1u) << "HD error 0x" << std::hex << code;
   }
+}
+
+// Waits (bounded) until the servo's last reading satisfies `done`; that reading.
+template <class Done>
+HardwareReading wait_reading(Servo& servo, Done done) {
+  HardwareReading r = servo.reading();
+  for (int i = 0; i < 3000 && !done(r); ++i) {
+    std::this_thread::sleep_for(1ms);
+    r = servo.reading();
+  }
+  return r;
+}
+
+TEST_F(TouchTest, AnUnpluggedDeviceIsReopenedWhenItAnswersAgain) {
+  Servo servo;
+  auto device = start(servo);
+  ASSERT_EQ(device->calibrate().readiness, Readiness::Ready);
+  servo.enable = true;
+  servo.fy = 1.5;
+  servo.wait_ticks(20);
+  ASSERT_NEAR(standin.force().norm(), 1.5, 1e-12);
+  {
+    std::lock_guard<std::mutex> lock(servo.mutex);
+    servo.cycles.clear();
+  }
+  // Unplugged: the first faulted cycle renders nothing, every later one is faulted and renders
+  // nothing; a communication error that persists becomes "lost" (kHardwareLost).
+  standin.unplug(1);
+  const HardwareReading lost =
+      wait_reading(servo, [](const HardwareReading& r) { return (r.faults & kHardwareLost) != 0; });
+  EXPECT_FALSE(lost.valid);
+  servo.wait_ticks(50);
+  servo.enable = false;
+  EXPECT_EQ(servo.reading().faults, static_cast<uint32_t>(kHardwareLost));
+  {
+    std::lock_guard<std::mutex> lock(servo.mutex);
+    std::size_t first = 0;
+    while (first < servo.cycles.size() && servo.cycles[first].faults == 0) ++first;
+    ASSERT_LT(first + 1, servo.cycles.size());
+    EXPECT_NE(servo.cycles[first].faults & kHardwareCommunication, 0u);
+    for (std::size_t i = first; i + 1 < servo.cycles.size(); ++i) {
+      EXPECT_NE(servo.cycles[i].faults, 0u) << "cycle " << i;
+      EXPECT_EQ(servo.cycles[i + 1].previous_output, 0.0) << "cycle " << i;
+    }
+  }
+  EXPECT_FALSE(servo.reading().valid);
+
+  // Plugged back: reopened (a new handle), force off until enabled again, then rendered again.
+  standin.unplug(0);
+  const HardwareReading back = wait_reading(servo, [](const HardwareReading& r) { return r.valid; });
+  ASSERT_TRUE(back.valid) << describe_hardware_faults(back.faults);
+  EXPECT_EQ(standin.is_open(), 1);
+  servo.wait_ticks(10);
+  EXPECT_EQ(standin.force_output_enabled(), 0);
+  EXPECT_EQ(standin.force().norm(), 0.0);
+  servo.enable = true;
+  servo.wait_ticks(10);
+  EXPECT_NEAR(standin.force().norm(), 1.5, 1e-12);
+  EXPECT_EQ(standin.frame_violations(), 0);
+  device->close();
+  EXPECT_EQ(standin.is_open(), 0);
+}
+
+TEST_F(TouchTest, ADeviceBackButUncalibratedSaysSoUntilTheStylusIsInTheInkwell) {
+  Servo servo;
+  auto device = start(servo);
+  ASSERT_EQ(device->calibrate().readiness, Readiness::Ready);
+  servo.enable = true;
+  servo.fy = 1.0;
+  standin.inject_error(hd::kDeviceFault, 0, 1);  // the device gone at once
+  const HardwareReading lost =
+      wait_reading(servo, [](const HardwareReading& r) { return (r.faults & kHardwareLost) != 0; });
+  EXPECT_FALSE(lost.valid);
+  // It lost its calibration meanwhile (powered off and on): back, its readings say so, force off.
+  standin.set_calibration(hd::kCalibrationNeedsManualInput);
+  const HardwareReading back = wait_reading(
+      servo, [](const HardwareReading& r) { return (r.faults & kHardwareLost) == 0 && r.faults != 0; });
+  EXPECT_EQ(back.faults, static_cast<uint32_t>(kHardwareNotCalibrated));
+  EXPECT_FALSE(back.valid);
+  servo.wait_ticks(20);
+  EXPECT_EQ(standin.force_output_enabled(), 0);
+  EXPECT_EQ(standin.force().norm(), 0.0);
+  // The stylus in the inkwell: calibrated again, valid readings, force.
+  standin.set_inkwell(1);
+  const HardwareReading ready = wait_reading(servo, [](const HardwareReading& r) { return r.valid; });
+  ASSERT_TRUE(ready.valid) << describe_hardware_faults(ready.faults);
+  servo.wait_ticks(10);
+  EXPECT_NEAR(standin.force().norm(), 1.0, 1e-12);
+  device->close();
 }
 
 TEST_F(TouchTest, ANonFiniteWrenchRendersNothing) {
@@ -488,6 +579,60 @@ TEST_F(TouchTest, TheSurveyNamesTheLibraryAndTheDefaultDevice) {
 // Through the factory's `touch` (a HapticDevice with the default profile): turning the stylus about
 // HD's y (up) turns the tool as much about the scene's z (up), moving it toward the user moves the
 // tool toward the operator (scene -y), and button 1 is the default profile's mark mild.
+TEST_F(TouchTest, UnpluggedAndBackTheFactorysTouchReturnsForceThroughTheGateAndTheRamp) {
+  auto device = make_device("touch", DeviceOptions{});
+  device->start();
+  const auto* haptic = dynamic_cast<const HapticDevice*>(device.get());
+  ASSERT_NE(haptic, nullptr);
+  double t = 0.0;
+  const auto cycle = [&](const Vec3& force) {
+    t += 0.001;
+    const DeviceState state = device->read(t);
+    device->write(force, Vec3::Zero());
+    return state;
+  };
+  cycle(Vec3::Zero());
+  t = 1.0;
+  cycle(Vec3(0.0, 0.0, 2.0));
+  ASSERT_TRUE(haptic->status().force_enabled);
+  ASSERT_NEAR(standin.force().norm(), 2.0, 1e-9);
+
+  // Unplugged: no force from then on; once lost, the force switch is off and the panel says lost.
+  standin.unplug(1);
+  for (int i = 0; i < 3000 && (haptic->status().faults & kHardwareLost) == 0; ++i) {
+    // The first read precedes any frame since the cable went (the write's frame raises the error).
+    const DeviceState state = cycle(Vec3(0.0, 0.0, 2.0));
+    if (i > 0) {
+      EXPECT_FALSE(state.valid) << "cycle " << i;
+    }
+    EXPECT_EQ(standin.force().norm(), 0.0);
+    std::this_thread::sleep_for(1ms);
+  }
+  EXPECT_FALSE(cycle(Vec3(0.0, 0.0, 2.0)).valid);
+  EXPECT_EQ(haptic->status().faults, static_cast<uint32_t>(kHardwareLost));
+  EXPECT_FALSE(haptic->status().force_enabled);
+
+  // Back: valid readings; a large force waits for the gate, a small one passes it and ramps in.
+  standin.unplug(0);
+  bool valid = false;
+  for (int i = 0; i < 3000 && !valid; ++i) {
+    valid = cycle(Vec3(0.0, 0.0, 2.0)).valid;
+    std::this_thread::sleep_for(1ms);
+  }
+  ASSERT_TRUE(valid);
+  EXPECT_EQ(haptic->status().faults, 0u);
+  EXPECT_FALSE(haptic->status().force_enabled);
+  EXPECT_EQ(standin.force().norm(), 0.0);
+  cycle(Vec3(0.0, 0.0, 0.2));
+  EXPECT_TRUE(haptic->status().force_enabled);
+  EXPECT_LT(standin.force().norm(), 0.01);
+  t += 0.25;
+  cycle(Vec3(0.0, 0.0, 2.0));
+  EXPECT_NEAR(standin.force().norm(), 1.0, 0.02);
+  device->stop();
+  EXPECT_EQ(standin.is_open(), 0);
+}
+
 TEST_F(TouchTest, TheFactorysTouchMapsHdsFrameOntoTheScene) {
   DeviceOptions options;
   options.home = Pose{Vec3(5.0, 6.0, 7.0), Quat(Eigen::AngleAxisd(0.3, Vec3(0.0, 1.0, 0.0)))};

@@ -63,6 +63,8 @@ struct Dev {
   double force[3] = {0, 0, 0}, torque[3] = {0, 0, 0}, gripper = 0;  // N, N·m, N as commanded
   int error_code = 0, error_calls = 0;  // injected: the next `error_calls` calls fail (< 0: all)
   int autoinit_count = 0;
+  bool unplugged = false;    // standin_fd_unplug: every call fails with DHD_ERROR_COM, opening finds none
+  bool dead_handle = false;  // open when unplugged: the handle stays dead until dhdClose
 };
 
 struct Sdk {
@@ -186,6 +188,11 @@ Dev* device(Sdk& s, char id) {
     return nullptr;
   }
   Dev& d = s.devices[static_cast<std::size_t>(id)];
+  if (d.unplugged || d.dead_handle) {
+    d.force_on = false;  // no power to the motors through a pulled cable
+    fail(fd::kErrorCom);
+    return nullptr;
+  }
   if (d.error_calls != 0) {
     if (d.error_calls > 0) --d.error_calls;
     fail(d.error_code);
@@ -202,6 +209,7 @@ int open_index(Sdk& s, int index) {
   if (index < 0 || index >= static_cast<int>(s.devices.size())) return fail(fd::kErrorNoDeviceFound);
   if (s.deny_access) return fail(fd::kErrorNoDriverFound);
   Dev& d = s.devices[static_cast<std::size_t>(index)];
+  if (d.unplugged) return fail(fd::kErrorNoDeviceFound);
   if (d.busy || d.open) return fail(fd::kErrorDeviceInUse);
   d.open = true;
   d.force_on = true;  // as the SDK does: a device opens with its force enabled
@@ -274,7 +282,19 @@ STANDIN_EXPORT int dhdOpenSerial(int serial) {
 STANDIN_EXPORT int dhdClose(char id) {
   Sdk& s = sdk();
   const std::lock_guard<std::mutex> lock(s.mutex);
-  Dev* d = device(state(), id);
+  Sdk& st = state();
+  // An unplugged device's handle is released all the same.
+  if (id >= 0 && id < static_cast<int>(st.devices.size())) {
+    Dev& dead = st.devices[static_cast<std::size_t>(id)];
+    if (dead.open && (dead.unplugged || dead.dead_handle)) {
+      dead.open = false;
+      dead.drd_open = false;
+      dead.dead_handle = false;
+      t_last_error = fd::kNoError;
+      return 0;
+    }
+  }
+  Dev* d = device(st, id);
   if (d == nullptr) return -1;
   d->open = false;
   d->drd_open = false;
@@ -547,4 +567,18 @@ STANDIN_EXPORT void standin_fd_deny_access(int deny) {
   Sdk& s = sdk();
   const std::lock_guard<std::mutex> lock(s.mutex);
   state().deny_access = deny != 0;
+}
+
+/// Pulls the device's cable (unplug != 0): every call on it fails with DHD_ERROR_COM and its motors
+/// stop; opening it finds no device. Plugging it back (0) lets it be opened again (its handle, if
+/// still open, stays dead until closed).
+STANDIN_EXPORT void standin_fd_unplug(int index, int unplug) {
+  Sdk& s = sdk();
+  const std::lock_guard<std::mutex> lock(s.mutex);
+  Dev& d = state().devices.at(static_cast<std::size_t>(index));
+  d.unplugged = unplug != 0;
+  if (d.unplugged) {
+    d.force_on = false;
+    d.dead_handle = d.open;
+  }
 }

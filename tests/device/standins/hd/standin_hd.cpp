@@ -10,7 +10,11 @@
 // Test-only functions (standin_hd_*) move the hand, set buttons, inject errors, configure the device
 // and read back the force in HD's units. CARIESIM_STANDIN_HD=circle makes the hand trace a circle (and
 // "buttons" in it presses buttons 0 and 1 in turn) (20 mm radius, 0.5 Hz, in the x-z plane) so that `cariesim
-// servo --device touch` moves. CARIESIM_STANDIN_HD_BUTTONS="T:MASK,T:MASK,..." scripts the buttons: from T
+// servo --device touch` moves; "unplug-at-Ts" in it pulls the cable T s of scheduler time after the
+// device opened and "replug-at-Ts" plugs it back (standin_hd_unplug does the same from a test).
+// Unplugged, every frame raises HD_COMM_ERROR and the motors render nothing; the handle stays dead
+// until hdDisableDevice, and hdInitDevice finds no device (HD_DEVICE_FAULT) until it is plugged back.
+// CARIESIM_STANDIN_HD_BUTTONS="T:MASK,T:MASK,..." scripts the buttons: from T
 // seconds after hdStartScheduler on, the pressed buttons are MASK (bit i = button i), e.g. "0.5:1,1.5:0"
 // holds button 0 from 0.5 s to 1.5 s.
 #include <algorithm>
@@ -96,6 +100,12 @@ struct Standin {
   HDerror inject_code = kSuccess;
   int inject_internal = 0;
   int inject_frames = 0;
+  bool unplugged = false;   // the cable pulled
+  bool dead = false;        // the open handle was unplugged: it stays dead until hdDisableDevice
+  double unplug_at = -1.0;  // s of scheduler time (CARIESIM_STANDIN_HD=...unplug-at-Ts)
+  double replug_at = -1.0;
+  bool unplug_fired = false;
+  HHD next_handle_id = 1;
   // Scheduler.
   unsigned long rate = 1000;
   std::vector<Scheduled> scheduled;
@@ -156,6 +166,12 @@ void simulate(Standin& s, double dt) {
   if (s.press_buttons) s.buttons = 1 << (static_cast<int>(s.time * 4.0) % 2);
   for (const auto& [at, mask] : s.button_script)
     if (s.time - s.scheduler_started >= at) s.buttons = mask;
+  if (s.unplug_at >= 0.0 && !s.unplug_fired && s.time >= s.unplug_at) {
+    s.unplug_fired = true;
+    s.unplugged = true;
+    s.dead = s.open;
+  }
+  if (s.replug_at >= 0.0 && s.unplug_fired && s.unplugged && s.time >= s.replug_at) s.unplugged = false;
   const int steps = std::clamp(static_cast<int>(std::ceil(dt / kSubstep)), 1, 1000);
   const double h = dt / steps;
   for (int k = 0; k < steps; ++k)
@@ -229,6 +245,14 @@ HHD hdInitDevice(HDstring config_name) {
   s.circle = env != nullptr && std::strstr(env, "circle") != nullptr;
   s.press_buttons = env != nullptr && std::strstr(env, "buttons") != nullptr;
   s.button_script = parse_button_script(std::getenv("CARIESIM_STANDIN_HD_BUTTONS"));
+  if (!s.unplug_fired && env != nullptr) {
+    if (const char* at = std::strstr(env, "unplug-at-")) s.unplug_at = s.time + std::atof(at + 10);
+    if (const char* at = std::strstr(env, "replug-at-")) s.replug_at = s.time + std::atof(at + 10);
+  }
+  if (s.unplugged) {
+    push_error(s, kDeviceFault);
+    return kInvalidHandle;
+  }
   if (s.open) {
     push_error(s, kDeviceAlreadyInitiated);
     return kInvalidHandle;
@@ -246,7 +270,8 @@ HHD hdInitDevice(HDstring config_name) {
     return kInvalidHandle;
   }
   s.open = true;
-  s.handle = 1;
+  s.dead = false;
+  s.handle = s.next_handle_id++;
   s.force_output = true;  // HD enables force output at initialisation
   s.frame_depth = 0;
   return s.handle;
@@ -260,6 +285,7 @@ void hdDisableDevice(HHD device) {
     return;
   }
   s.open = false;
+  s.dead = false;
   for (double& f : s.out_force) f = 0.0;
   for (double& t : s.out_torque) t = 0.0;
 }
@@ -277,6 +303,7 @@ void hdBeginFrame(HHD device) {
     push_error(s, kBadHandle);
     return;
   }
+  if (s.frame_depth == 0 && s.dead) push_error(s, kCommError);
   if (s.frame_depth == 0 && s.inject_frames > 0) {
     --s.inject_frames;
     push_error(s, s.inject_code, s.inject_internal);
@@ -296,7 +323,14 @@ void hdEndFrame(HHD device) {
     ++s.frame_violations;
     return;
   }
-  if (--s.frame_depth == 0) commit_forces(s);
+  if (--s.frame_depth == 0) {
+    if (s.dead) {
+      for (double& f : s.out_force) f = 0.0;  // no motor current through a pulled cable
+      for (double& t : s.out_torque) t = 0.0;
+    } else {
+      commit_forces(s);
+    }
+  }
 }
 
 HDErrorInfo hdGetError() {
@@ -554,6 +588,8 @@ void standin_hd_reset() {
   s.scheduler_started = 0.0;
   s.errors.clear();
   s.inject_frames = 0;
+  s.unplugged = s.dead = s.unplug_fired = false;
+  s.unplug_at = s.replug_at = -1.0;
   s.rate = 1000;
   s.scheduled.clear();
   s.ticks = 0;
@@ -659,6 +695,18 @@ int standin_hd_force_output_enabled() {
   Standin& s = state();
   std::lock_guard<std::mutex> lock(s.mutex);
   return s.force_output ? 1 : 0;
+}
+
+// Pulls the cable (unplug != 0) or plugs it back (0).
+void standin_hd_unplug(int unplug) {
+  Standin& s = state();
+  std::lock_guard<std::mutex> lock(s.mutex);
+  s.unplugged = unplug != 0;
+  if (s.unplugged) {
+    s.dead = s.open;
+    for (double& f : s.out_force) f = 0.0;
+    for (double& t : s.out_torque) t = 0.0;
+  }
 }
 
 int standin_hd_is_open() {
