@@ -6,6 +6,7 @@
 // version is refused by name before the loop starts.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <chrono>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include "cariesim/record/recorder.hpp"
 #include "servo/servo_support.hpp"
 #include "standins/haply/inverse_service.hpp"
+#include "support/command.hpp"
 
 namespace cariesim {
 namespace {
@@ -86,6 +88,33 @@ TEST_F(HaplyCommand, AnotherServiceVersionIsRefusedByName) {
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.err, HasSubstr("Haply Inverse Service 3.0.7.0 is too old"));
   EXPECT_EQ(service.connections(), 0u);
+}
+
+// A crash (here SIGSEGV from outside, as a fault on any thread would raise it) while the hand
+// presses on the block: the program's fatal-signal handler stops every force (request_force_stop)
+// and gives the servo thread a few cycles before the signal takes its course, so the last force the
+// device received is zero, not the press's 0.3 N.
+TEST_F(HaplyCommand, ACrashLeavesTheDeviceWithNoForce) {
+  test::InverseService service;
+  service.place_cursor(Vec3(0.0, 0.1, 0.1));
+  service.push_hand(Vec3(0.0, 0.0, -0.3));
+  const fs::path db = dir_ / "crash.db";
+  test::CommandResult r;
+  std::thread servo([&] {
+    r = test::run_cariesim("servo --scene friction-block --device 'haply:" + service.url() +
+                           "' --duration 60 --no-realtime --quiet --record '" + db.string() + "'");
+  });
+  // Pressing: the service receives the contact's force.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (service.last_force().z() < 0.2 && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GT(service.last_force().z(), 0.2) << "the press never reached the device";
+  const pid_t pid = test::find_process(CARIESIM_EXE, db.string());
+  EXPECT_GT(pid, 0) << "servo is not running";
+  if (pid > 0) ::kill(pid, SIGSEGV);
+  servo.join();
+  EXPECT_NE(r.status, 0) << r.err;  // it did crash
+  EXPECT_EQ(service.last_force(), Vec3::Zero()) << service.last_force().transpose();
 }
 
 }  // namespace
