@@ -119,3 +119,22 @@ def test_scenes_pickle():
     scene = cariesim.load_scene("friction-block", {"lesions[0].material.mu_s": 0.3})
     copy = pickle.loads(pickle.dumps(scene))
     assert copy.overrides == scene.overrides and copy.source_hash == scene.source_hash
+
+
+def test_the_measured_surface_deviation_is_the_tree_commands(cariesim_exe):
+    """model.parts with measure_deviation=True: per part the deviation of the tree from the surface
+    (mm), the numbers `cariesim tree --json` reports for the same scene; none without asking."""
+    import json
+
+    from conftest import run_cariesim
+
+    parts = cariesim.load_scene("friction-block").build(measure_deviation=True).parts
+    tree = json.loads(run_cariesim(cariesim_exe, "tree", "friction-block", "--json").stdout)
+    by_name = {p["name"]: p["deviation_mm"] for p in tree["parts"]}
+    assert [p["name"] for p in parts] == list(by_name)
+    for part in parts:
+        theirs = by_name[part["name"]]
+        assert 0.0 <= part["deviation_p50"] <= part["deviation_p95"] <= part["deviation_max"]
+        for key in ("p50", "p95", "max"):
+            assert part["deviation_" + key] == pytest.approx(theirs[key], rel=1e-6), (part["name"], key)
+    assert "deviation_p50" not in cariesim.load_scene("friction-block").build().parts[0]
