@@ -169,7 +169,10 @@ void ViewerApp::panel_device() {
     ImGui::TextColored(warn, "calibration: %s", st.calibration.message.c_str());
   ImGui::Text("force %s   rate %.0f Hz", st.force_enabled ? "on" : "off (waiting)", snapshot_.rate_hz);
   if (st.clutched) ImGui::TextColored(warn, "CLUTCH held: the tool stays, move your hand");
-  if (st.faults != 0) ImGui::TextColored(warn, "device: %s", describe_hardware_faults(st.faults).c_str());
+  if ((st.faults & kHardwareLost) != 0)
+    ImGui::TextColored(warn, "device lost: no force; it reconnects when the device answers again");
+  else if (st.faults != 0)
+    ImGui::TextColored(warn, "device: %s", describe_hardware_faults(st.faults).c_str());
   ImGui::TextWrapped("%s", st.rendering().c_str());
 }
 

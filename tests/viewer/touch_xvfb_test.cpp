@@ -52,5 +52,30 @@ TEST(TouchXvfb, RunDrivesTheViewerFromTheStandin) {
       HasSubstr("\"rendering\":\"3-DoF force: the torque (the shank's posture cue) is not rendered\""));
 }
 
+// The Touch unplugged mid-run in the window: the panel's Device section and the status file say the
+// device was lost, and no force reached it after that.
+TEST(TouchXvfb, AnUnpluggedTouchIsShownLost) {
+  if (!test::have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";
+  std::vector<std::string> argv = test::xvfb_cariesim();
+  const fs::path png = test::viewer_artefacts() / "touch-lost.png",
+                 json = test::viewer_artefacts() / "touch-lost.json";
+  fs::remove(json);
+  for (const std::string& word :
+       {std::string("run"), std::string("--scene"), std::string("friction-block"), std::string("--device"),
+        std::string("touch"), std::string("--no-realtime"), std::string("--exit-after"), std::string("2"),
+        std::string("--screenshot"), png.string()})
+    argv.push_back(word);
+  io::ProcessOptions options;
+  options.environment = {"CARIESIM_CACHE_DIR=" + (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string(),
+                         std::string("CARIESIM_HD_LIBRARY=") + CARIESIM_STANDIN_HD,
+                         "CARIESIM_STANDIN_HD=circle,unplug-at-0.5s"};
+  const test::CommandOutput c = test::run_command(argv, options);
+  ASSERT_EQ(c.status, 0) << c.how << "\n" << c.err << c.out;
+  std::ifstream in(json);
+  ASSERT_TRUE(in) << json;
+  const std::string status((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(status, HasSubstr("\"faults\":\"device lost\"")) << status;
+}
+
 }  // namespace
 }  // namespace cariesim
