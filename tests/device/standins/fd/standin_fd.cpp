@@ -235,8 +235,8 @@ const char* error_text(int code) {
       return "device not ready";
     case fd::kErrorInvalidIndex:
       return "invalid index";
-    case fd::kErrorNotImplemented:
-      return "feature not implemented";
+    case fd::kErrorNotImplemented:  // the SDK's answer to drdAutoInit on a Falcon (no robotic homing)
+      return "not supported by this device";
     case fd::kErrorDeviceInUse:
       return "device in use";
     default:
