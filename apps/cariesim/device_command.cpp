@@ -11,7 +11,6 @@
 #include <memory>
 #include <string>
 #include <thread>
-#include <vector>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/device/factory.hpp"
@@ -21,6 +20,7 @@
 #include "cariesim/device/profile.hpp"
 #include "cariesim/device/shared_library.hpp"
 #include "cariesim/record/replay.hpp"
+#include "cariesim/servo/servo.hpp"
 #include "commands.hpp"
 
 namespace cariesim::cli {
@@ -76,7 +76,7 @@ struct CheckStats {
   uint64_t readings = 0, valid = 0;
   uint32_t buttons = 0;
   Eigen::AlignedBox3d reach;
-  std::vector<double> intervals_us;  // between readings
+  TimingHistogram intervals;         // us between readings
   double peak_force = 0.0;           // N, the spring's
   std::chrono::steady_clock::time_point last{};
 };
@@ -91,8 +91,8 @@ struct CheckCycle {
   double t = 0.0, dt = 0.001;  // s
   void run() {
     const auto now = std::chrono::steady_clock::now();
-    if (stats.readings > 0 && stats.intervals_us.size() < stats.intervals_us.capacity())
-      stats.intervals_us.push_back(std::chrono::duration<double, std::micro>(now - stats.last).count());
+    if (stats.readings > 0)
+      stats.intervals.add(std::chrono::duration<double, std::micro>(now - stats.last).count());
     stats.last = now;
     const DeviceState s = device->read(t);
     t += dt;
@@ -113,13 +113,6 @@ struct CheckCycle {
   }
   static void tick(void* context) { static_cast<CheckCycle*>(context)->run(); }
 };
-
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1,
-                         static_cast<std::size_t>(p * static_cast<double>(values.size())))];
-}
 
 int check_device(const CheckArgs& args) {
   DeviceOptions options;
@@ -165,7 +158,6 @@ int check_device(const CheckArgs& args) {
   CheckCycle cycle;
   cycle.device = device.get();
   const double total = args.seconds + (args.force ? args.spring_seconds : 0.0);
-  cycle.stats.intervals_us.reserve(static_cast<std::size_t>(total * 20000.0) + 16);
   DeviceClock* clock = device->clock();
   std::atomic<bool> running{true};
   std::thread own;
@@ -212,8 +204,8 @@ int check_device(const CheckArgs& args) {
   std::printf(
       "  %llu readings (%llu valid) in %.2f s: %.1f Hz; interval p50 %.0f us, p99 %.0f us, max %.0f us\n",
       static_cast<unsigned long long>(s.readings), static_cast<unsigned long long>(s.valid), seconds,
-      static_cast<double>(s.readings) / std::max(seconds, 1e-9), percentile(s.intervals_us, 0.5),
-      percentile(s.intervals_us, 0.99), percentile(s.intervals_us, 1.0));
+      static_cast<double>(s.readings) / std::max(seconds, 1e-9), s.intervals.percentile(0.5),
+      s.intervals.percentile(0.99), s.intervals.max());
   if (s.valid > 0) {
     const Vec3 size = s.reach.sizes();
     std::printf("  reached %.1f x %.1f x %.1f mm (scene frame)\n", size.x(), size.y(), size.z());

@@ -176,7 +176,7 @@ void HapticDevice::write(const Vec3& force, const Vec3& torque) {
   // A fault, an invalid reading or the clutch: no force this cycle. A device lost (or needing
   // calibration again after it came back) also has its force switch turned off: the backend reopens
   // it with force off, and force returns only through the gate and the ramp below.
-  if (!reading_valid_ || faults_ != 0 || clutch_held_) {
+  if (!reading_valid_ || clutch_held_) {  // (a reading with a fault is never valid)
     hardware_->write(Vec3::Zero(), Vec3::Zero());
     if (enabled_ && (faults_ & (kHardwareLost | kHardwareNotCalibrated)) != 0) {
       hardware_->enable_force(false);

@@ -1,7 +1,6 @@
 #include "cariesim/device/profile.hpp"
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "cariesim/common/error.hpp"
@@ -14,15 +13,6 @@ namespace {
 
 // Largest profile file accepted (a profile is a few lines).
 constexpr std::uintmax_t kMaxProfileBytes = 64 * 1024;
-
-// A rotation as the scene format writes it: {axis: [x, y, z], angle: degrees}.
-Quat rotation(const io::Reader& reader, const YAML::Node& node, const std::string& path) {
-  const io::Fields fields(reader, node, path, {"axis", "angle"});
-  const Vec3 axis = reader.direction(fields.require("axis"), fields.sub("axis"));
-  const double angle =
-      reader.number_in(fields.require("angle"), fields.sub("angle"), -360.0, 360.0, "degrees");
-  return Quat(Eigen::AngleAxisd(angle * std::numbers::pi / 180.0, axis));
-}
 
 // The button map: {index: action}.
 void buttons(const io::Reader& reader, const YAML::Node& node, const std::string& path,
@@ -52,7 +42,7 @@ DeviceProfile parse_device_profile(const std::string& text, const std::string& o
                           {"rotation", "translation", "scale", "stylus_offset", "fixed_orientation",
                            "buttons", "force_enable_below", "ramp_time", "continuous_time_constant"});
   if (fields.has("rotation"))
-    profile.rotation = rotation(reader, fields.get("rotation"), fields.sub("rotation"));
+    profile.rotation = reader.rotation(fields.get("rotation"), fields.sub("rotation"));
   if (fields.has("translation"))
     profile.translation = reader.vec3(fields.get("translation"), fields.sub("translation"));
   fields.positive("scale", profile.scale, 10.0, "mm of scene per mm of hand");
@@ -63,7 +53,7 @@ DeviceProfile parse_device_profile(const std::string& text, const std::string& o
   }
   if (fields.has("fixed_orientation"))
     profile.fixed_orientation =
-        rotation(reader, fields.get("fixed_orientation"), fields.sub("fixed_orientation"));
+        reader.rotation(fields.get("fixed_orientation"), fields.sub("fixed_orientation"));
   if (fields.has("buttons")) buttons(reader, fields.get("buttons"), fields.sub("buttons"), profile.buttons);
   fields.number_in("force_enable_below", profile.force_enable_below, 0.01, 5.0, "N");
   fields.number_in("ramp_time", profile.ramp_time, 0.0, 10.0, "s");

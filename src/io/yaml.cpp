@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 namespace cariesim::io {
@@ -254,6 +255,14 @@ Vec3 Reader::direction(const YAML::Node& node, const std::string& path) const {
   const double length = v.norm();
   if (!(length > 1e-9) || !std::isfinite(length)) fail(node, path, "expected a non-zero direction");
   return v / length;
+}
+
+Quat Reader::rotation(const YAML::Node& node, const std::string& path) const {
+  const Fields fields(*this, node, path, {"axis", "angle"});
+  const Vec3 axis = direction(fields.require("axis"), fields.sub("axis"));
+  const double angle = number_in(fields.require("angle"), fields.sub("angle"), -720.0, 720.0, "degrees");
+  constexpr double kDegree = std::numbers::pi / 180.0;  // rad per degree
+  return Quat(Eigen::AngleAxisd(angle * kDegree, axis)).normalized();
 }
 
 Eigen::Vector2d Reader::vec2(const YAML::Node& node, const std::string& path) const {

@@ -56,12 +56,7 @@ Pose read_pose(const Reader& r, const YAML::Node& node, const std::string& path)
   const Fields f(r, node, path, {"position", "rotation"});
   Pose pose;
   if (const auto n = f.get("position"); n.IsDefined()) pose.p = read_position(r, n, f.sub("position"));
-  if (const auto n = f.get("rotation"); n.IsDefined()) {
-    const Fields rot(r, n, f.sub("rotation"), {"axis", "angle"});
-    const Vec3 axis = r.direction(rot.require("axis"), rot.sub("axis"));
-    const double angle = r.number_in(rot.require("angle"), rot.sub("angle"), -720.0, 720.0, "degrees");
-    pose.q = Quat(Eigen::AngleAxisd(angle * kDegree, axis)).normalized();
-  }
+  if (const auto n = f.get("rotation"); n.IsDefined()) pose.q = r.rotation(n, f.sub("rotation"));
   return pose;
 }
 

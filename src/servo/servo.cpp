@@ -128,8 +128,7 @@ ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& opt
       params_out_(params_) {
   check_servo_rate(options.rate_hz);
   check_servo_spin(options.spin_us);
-  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.rate_hz));
-  dt_ = static_cast<double>(period_ns_) * 1e-9;
+  set_period(options.rate_hz);
   spin_ns_ = std::min<int64_t>(std::llround(options.spin_us * 1e3), period_ns_ / 2);
   options_.params.reset();  // held in params_
   // The starting Params are published at once; later versions reuse the slots' memory.
@@ -138,6 +137,11 @@ ServoLoop::ServoLoop(const Model& model, Device& device, const ServoOptions& opt
 }
 
 ServoLoop::~ServoLoop() { stop(); }
+
+void ServoLoop::set_period(double rate_hz) {
+  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / rate_hz));
+  dt_ = static_cast<double>(period_ns_) * 1e-9;
+}
 
 void ServoLoop::start() {
   if (running_.load()) return;
@@ -158,8 +162,7 @@ void ServoLoop::start() {
     start_clocked();
     return;
   }
-  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options_.rate_hz));
-  dt_ = static_cast<double>(period_ns_) * 1e-9;
+  set_period(options_.rate_hz);
   // With a standby: the servo thread on the highest CPU of the process's affinity, the standby on the
   // next; with only one CPU, no standby.
   const std::vector<int> allowed = options_.standby ? allowed_cpus() : std::vector<int>{};
@@ -203,8 +206,7 @@ void ServoLoop::start_clocked() {
     device_.stop();
     throw Error(std::string("the device's servo clock: ") + e.what());
   }
-  period_ns_ = std::max<int64_t>(1, std::llround(1e9 / rate));
-  dt_ = static_cast<double>(period_ns_) * 1e-9;
+  set_period(rate);
   measured_rate_ = rate;
   clock_cycles_ = 0;
   last_tick_ns_ = 0;

@@ -81,6 +81,9 @@ class Reader {
   [[nodiscard]] Vec3 vec3(const YAML::Node& node, const std::string& path) const;
   /// A sequence of 3 finite numbers with a non-zero length, normalized.
   [[nodiscard]] Vec3 direction(const YAML::Node& node, const std::string& path) const;
+  /// A rotation as scenes and device profiles write it: {axis: [x, y, z] (any non-zero length),
+  /// angle: degrees in [-720, 720]} (right-hand rule).
+  [[nodiscard]] Quat rotation(const YAML::Node& node, const std::string& path) const;
   /// A sequence of 2 finite numbers.
   [[nodiscard]] Eigen::Vector2d vec2(const YAML::Node& node, const std::string& path) const;
   /// Checks that `node` is a sequence (a missing node is an empty sequence).

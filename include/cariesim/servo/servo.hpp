@@ -209,6 +209,8 @@ class ServoLoop {
   /// One cycle at servo time `t` (s) for the deadline `deadline_ns`, woken at `wake_ns`
   /// (CLOCK_MONOTONIC ns). Returns when the work ended (before publishing).
   int64_t cycle(double t, int64_t deadline_ns, int64_t wake_ns);
+  /// The period and dt of a loop at `rate_hz` (its own clock's or the device's).
+  void set_period(double rate_hz);
   /// Starts a loop clocked by the device (DeviceClock), and its tick.
   void start_clocked();
   static void clock_tick(void* context);
