@@ -211,7 +211,9 @@ constexpr FigurePlace kFigurePlaces[] = {
     {"report-diagnosis", "diagnosis", "Detection rate and time to detection per participant."},
     {"report-cases", "lesions",
      "Each case seen from above: the teeth (drawn from the scene's meshes), the case's lesions (circles: "
-     "filled when found) and the trainee's marks (+ mild, x severe; red when false)."},
+     "blue "
+     "mild, red severe, filled when found) and the trainee's marks (+ mild, x severe; green found a lesion, "
+     "grey again on a found one, black false)."},
     {"report-learning", "learning_curve",
      "Learning curves: each participant's scores per trial, in time order."},
 };

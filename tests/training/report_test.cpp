@@ -11,13 +11,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cariesim/common/error.hpp"
-#include "support/csv.hpp"
 #include "support/command.hpp"
+#include "support/csv.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
 
@@ -613,6 +614,49 @@ TEST_F(ReportTest, GradebookListsEachLesionFoundOrMissed) {
   const std::string html = read_text(out / "report.html");
   EXPECT_TRUE(has(html, "<h2>Gradebook</h2>"));
   EXPECT_TRUE(has(html, "<td>missed</td>"));
+}
+
+// The case pictures' data are drawn from the model: the built-in study's first case rebuilt from the
+// recorded seed places the paper's three lesions on the real-arch teeth (46 occlusal and mesial, 36
+// occlusal, snapped as the model builder snaps them), every tooth has an outline seen from above; a
+// recorded case the rebuild does not give keeps its marks, without lesions, and a warning says so.
+TEST_F(ReportTest, CasePicturesPlaceTheLesionsWhereTheModelDoes) {
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 42, kPaperCaseAnswers);
+    std::string other = kPaperCaseAnswers;
+    other.replace(other.find("46-occlusal"), 11, "47-occlusal");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
+            case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 43, other);
+  }
+  Report report = build_report(merge_study_databases({dir_ / "a.db"}));
+  EXPECT_EQ(add_case_views(report, {}), 2U);
+  const fs::path out = dir_ / "out";
+  write_report(report, out, {});
+  const auto points = read_csv(out / "case_points.csv");
+  std::vector<std::map<std::string, std::string>> lesions;
+  for (const auto& r : points)
+    if (r.at("what") == "lesion") lesions.push_back(r);
+  ASSERT_EQ(lesions.size(), 3U);  // the second case's lesions are not drawn
+  for (const auto& r : lesions) EXPECT_EQ(r.at("case"), "1");
+  // 46 is on the left of the arch's picture (x < 0), 36 on the right; the mesial lesion of 46 lies
+  // toward 45 (lower y) than its occlusal one.
+  EXPECT_LT(num(lesions[0], "x_mm"), -15.0);
+  EXPECT_LT(num(lesions[1], "y_mm"), num(lesions[0], "y_mm") - 2.0);
+  EXPECT_GT(num(lesions[2], "x_mm"), 15.0);
+  EXPECT_EQ(lesions[0].at("result"), "found");
+  EXPECT_EQ(lesions[1].at("result"), "missed");
+  EXPECT_EQ(lesions[0].at("size_mm"), "2.2");
+  std::size_t marks = 0;
+  for (const auto& r : points) marks += r.at("what") == "mark" ? 1 : 0;
+  EXPECT_EQ(marks, 8U);  // both cases' four marks
+  std::set<std::string> teeth;
+  for (const auto& r : read_csv(out / "case_outlines.csv")) teeth.insert(r.at("tooth"));
+  EXPECT_EQ(teeth.size(), 16U);
+  ASSERT_FALSE(report.warnings.empty());
+  EXPECT_THAT(report.warnings.back(), HasSubstr("1 case picture(s) without their lesions: P1 case 2"));
+  EXPECT_FALSE(has(read_text(out / "report.html"), "case_points"));  // data for the figure only
 }
 
 // A course's criteria grade each trainee: gradebook.csv holds one row per trainee and criterion (and

@@ -133,8 +133,9 @@ struct ReportTable {
   std::vector<Column> columns;
   std::vector<std::vector<Cell>> rows;
   bool in_html = true;  ///< false: CSV and JSON only (a long-form table), the page names the file
-  /// The part of the page it is in: kSectionGradebook, kSectionResearch or kSectionInputs. A table
-  /// without rows is left off the page (its CSV and JSON entry stay, empty).
+  /// The part of the page it is in: kSectionGradebook, kSectionResearch or kSectionInputs ("": CSV
+  /// and JSON only, not on the page). A table without rows is left off the page (its CSV and JSON
+  /// entry stay, empty).
   std::string section = kSectionResearch;
 };
 
