@@ -7,10 +7,13 @@
 Five dentists D1-D5 (D1-D3 at station-a, D4-D5 at station-b) each do the three built-in studies:
 `tuning` (four trials, mild and severe: mu_s, mu_d, k_c, k_e drawn around the paper's per-dentist
 means and SDs of Tables 1-2), `boundary-shapes` (ten trials, three shapes) and `diagnosis` (four
-cases of three lesions, getting better case by case). Station-b also holds one unfinished case. The
-numbers are made up from a fixed seed; the schema is read from src/training/study_schema.hpp, so the
-files are what `cariesim study run` writes. Python's standard library only.
+runs of its first case, the paper's three lesions, getting better case by case; each case's lesions
+and marks in its answers, as a station records them). Station-b also holds one unfinished case. It
+also writes OUT_DIR/course.yaml, a course with pass/fail criteria for `cariesim report --course`.
+The numbers are made up from a fixed seed; the schema is read from src/training/study_schema.hpp, so
+the files are what `cariesim study run` writes. Python's standard library only.
 """
+import json
 import os
 import random
 import re
@@ -62,15 +65,15 @@ class Station:
         self.db.execute("INSERT INTO schema_version (version, application) VALUES (?, ?)", (version, application))
         self.name = name
 
-    def trial(self, who, study, number, seed, start, seconds, scores, finished=True):
+    def trial(self, who, study, number, seed, start, seconds, scores, finished=True, answers="{}"):
         started = "2026-11-%02dT%02d:%02d:%02d.000Z" % start
         day, hour, minute, second = start
         total = hour * 3600 + minute * 60 + second + int(seconds)
         ended = "2026-11-%02dT%02d:%02d:%02d.000Z" % (day, total // 3600, total // 60 % 60, total % 60)
         cur = self.db.execute(
             "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
-            " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, '{}', '{}')",
-            (self.name, who, study, study, number, seed, started, ended if finished else None))
+            " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, ?, '{}')",
+            (self.name, who, study, study, number, seed, started, ended if finished else None, answers))
         for name, level, value, unit in scores:
             self.db.execute("INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)",
                             (cur.lastrowid, name, level, value, unit))
@@ -78,6 +81,49 @@ class Station:
     def close(self):
         self.db.commit()
         self.db.close()
+
+
+# The built-in diagnosis study's first case (studies/diagnosis.yaml, the paper's #1-#3), and where the
+# model places each lesion (world mm, as `cariesim report` rebuilds it from the scene): the marks of
+# the example land on them.
+PAPER_CASE = [{"site": "46-occlusal", "severity": "severe", "size": 2.2, "width": 1.0, "depth": 2.5},
+              {"site": "46-mesial", "severity": "severe", "size": 2.0, "width": 1.4, "depth": 1.3},
+              {"site": "36-occlusal", "severity": "mild", "size": 3.0, "width": 0.8, "depth": 1.2}]
+CENTRES = [[-20.209, -0.328, 7.94], [-19.26, -4.375, 2.44], [19.654, 0.431, 8.07]]
+# A false mark's place: the occlusal surface of 45 or 47, away from every lesion.
+ELSEWHERE = [[-16.743, -7.567, 7.928], [-24.163, 8.25, 7.774]]
+
+COURSE = """# course.yaml: the example class (docs/reports.md); `cariesim report --course` grades with its criteria.
+format: 1
+course: Example class
+study: diagnosis
+records: records
+station: station-a
+instructor: pbkdf2-sha256$600000$ba9f44571da1cd87db4514d1c8529d2c$507309be11afaf095e2d9b42fbb6b0639f9e4c686035c1eb08d477ec3a119722
+criteria:
+  detection_rate: 0.9     # of the lesions over all cases (the paper's expert found all, section 5.3)
+  false_marks: 0          # in any one case
+  time_per_lesion: 30     # s, mean (the paper's expert: under 30 s)
+  soft_tissue_time: 1.5   # s in any one case
+"""
+
+
+def case_answers(rng, found, graded, times, false_marks):
+    """trials.answers of a diagnosis case (docs/training.md): its lesions and the marks, in time order."""
+    marks = []
+    for k, lesion in enumerate(PAPER_CASE):
+        if found[k]:
+            right = lesion["severity"]
+            grade = right if graded[k] else ("mild" if right == "severe" else "severe")
+            tip = [c + rng.uniform(-0.2, 0.2) for c in CENTRES[k]]
+            marks.append({"t": round(times[k], 1), "grade": grade, "contact": True, "tip": tip,
+                          "lesion": k + 1, "distance": 0.0, "first": True})
+    for _ in range(false_marks):
+        where = ELSEWHERE[rng.randrange(len(ELSEWHERE))]
+        marks.append({"t": round(rng.uniform(5, 60), 1), "grade": "mild", "contact": True, "tip": where,
+                      "lesion": None, "distance": 3.0, "first": False})
+    marks.sort(key=lambda m: m["t"])
+    return json.dumps({"lesions": PAPER_CASE, "marks": marks, "ended_at": None}, separators=(",", ":"))
 
 
 def main():
@@ -111,9 +157,10 @@ def main():
             scores += [("shape_correct", shape, float(v), "") for shape, v in right.items()]
             station.trial(who, "boundary-shapes", t, rng.randrange(1 << 31), (day, 10, 4 * t, 0), 200, scores)
 
-        # Diagnosis: four cases of lesions #1 (mild), #2 (severe), #3 (mild); better case by case.
+        # Diagnosis: four runs of the paper's case, lesions #1 (severe), #2 (severe), #3 (mild); better
+        # case by case.
         for t in range(1, 5):
-            severities = ["mild", "severe", "mild"]
+            severities = [lesion["severity"] for lesion in PAPER_CASE]
             found = [rng.random() < 0.55 + 0.12 * t + (0.1 if s == "severe" else 0.0) for s in severities]
             graded = [f and rng.random() < 0.6 + 0.1 * t for f in found]
             false_marks = int(rng.random() < 0.5 - 0.1 * t)
@@ -133,14 +180,19 @@ def main():
                        ("enamel_excess_force_time", "", round(max(0.0, rng.gauss(0.8 - 0.15 * t, 0.2)), 2), "s"),
                        ("enamel_peak_force", "", round(rng.uniform(2.0, 5.0), 2), "N"),
                        ("blocked_insertions", "", float(rng.randrange(0, 3)), "count")]
-            station.trial(who, "diagnosis", t, rng.randrange(1 << 31), (day, 11, 5 * t, 0), case_time, scores)
+            answers = case_answers(rng, found, graded, times, false_marks)
+            station.trial(who, "diagnosis", 1, rng.randrange(1 << 31), (day, 11, 5 * t, 0), case_time, scores,
+                          answers=answers)
 
     # A case abandoned at station-b (no end time): listed, not counted.
     stations["station-b"].trial("D5", "diagnosis", 5, 7, (24, 11, 30, 0), 0,
                                 [("lesions", "", 3.0, "count")], finished=False)
     for s in stations.values():
         s.close()
-    print("wrote %s and %s" % (os.path.join(out, "station-a.db"), os.path.join(out, "station-b.db")))
+    with open(os.path.join(out, "course.yaml"), "w") as f:
+        f.write(COURSE)
+    print("wrote %s, %s and %s" % (os.path.join(out, "station-a.db"), os.path.join(out, "station-b.db"),
+                                   os.path.join(out, "course.yaml")))
 
 
 if __name__ == "__main__":

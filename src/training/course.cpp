@@ -81,6 +81,34 @@ bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
 }
 
+// s: the longest time a criterion may name (a case is at most minutes long).
+constexpr double kMaxCriterionSeconds = 1e4;
+
+// The course's `criteria` mapping (docs/instructors.md): fractions in [0, 1], a whole count of false
+// marks, times in seconds; an unknown key, a wrong type or a value out of range names its field.
+PassCriteria parse_criteria(const Reader& r, const YAML::Node& node) {
+  const Fields f(
+      r, node, "criteria",
+      {"detection_rate", "severity_accuracy", "false_marks", "time_per_lesion", "soft_tissue_time"});
+  PassCriteria c;
+  if (const auto n = f.get("detection_rate"); n.IsDefined())
+    c.detection_rate = r.number_in(n, f.sub("detection_rate"), 0.0, 1.0, "");
+  if (const auto n = f.get("severity_accuracy"); n.IsDefined())
+    c.severity_accuracy = r.number_in(n, f.sub("severity_accuracy"), 0.0, 1.0, "");
+  if (const auto n = f.get("false_marks"); n.IsDefined())
+    c.false_marks = static_cast<int>(r.integer_in(n, f.sub("false_marks"), 0, 1000));
+  if (const auto n = f.get("time_per_lesion"); n.IsDefined())
+    c.time_per_lesion = r.positive(n, f.sub("time_per_lesion"), kMaxCriterionSeconds, "s");
+  if (const auto n = f.get("soft_tissue_time"); n.IsDefined())
+    c.soft_tissue_time = r.number_in(n, f.sub("soft_tissue_time"), 0.0, kMaxCriterionSeconds, "s");
+  if (!c.detection_rate && !c.severity_accuracy && !c.false_marks && !c.time_per_lesion &&
+      !c.soft_tissue_time)
+    r.fail(node, "criteria",
+           "no criterion given (detection_rate, severity_accuracy, false_marks, time_per_lesion, "
+           "soft_tissue_time)");
+  return c;
+}
+
 }  // namespace
 
 bool valid_identifier(std::string_view id) {
@@ -108,8 +136,9 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
   const YAML::Node root = io::parse_document(yaml, origin.string());
 
   try {
-    const Fields f(r, root, "",
-                   {"format", "course", "study", "records", "station", "participants", "instructor"});
+    const Fields f(
+        r, root, "",
+        {"format", "course", "study", "records", "station", "participants", "instructor", "criteria"});
     if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, "format", 1, 1);
     course.name = required_text(r, f, "course");
     const std::filesystem::path base = origin.parent_path();
@@ -176,6 +205,9 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
     } catch (const Error& e) {
       r.fail(hash, "instructor", e.what());
     }
+
+    // What the report grades (optional): each criterion in its range, at least one given.
+    if (const auto node = f.get("criteria"); node.IsDefined()) course.criteria = parse_criteria(r, node);
   } catch (const YAML::Exception& e) {
     throw Error(fmt::format("{}: {}", r.where(e.mark), e.msg));
   }

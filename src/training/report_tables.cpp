@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
+#include <iterator>
 #include <map>
 #include <string>
 #include <tuple>
@@ -479,12 +481,292 @@ ReportTable unfinished_table(const MergedStudies& merged) {
   return table;
 }
 
+// --- The gradebook (docs/reports.md, "The gradebook"): per trainee and case, in plain words. ---
+
+// A trainee's finished diagnosis cases, in time order.
+std::vector<const StudyTrial*> diagnosis_cases(const std::vector<const StudyTrial*>& trials) {
+  std::vector<const StudyTrial*> out;
+  for (const StudyTrial* t : trials)
+    if (t->kind == kKindDiagnosis) out.push_back(t);
+  return out;
+}
+
+// "1 false mark", "2 false marks".
+std::string count_of(double n, const char* one, const char* many) {
+  return fmt::format("{:g} {}", n, n == 1.0 ? one : many);
+}
+
+// What one case's scores say, in words a trainee understands.
+std::string case_summary(const StudyTrial& t) {
+  const double lesions = trial_sum(t, kScoreLesions).value_or(0.0);
+  const double found = trial_sum(t, kScoreDetected).value_or(0.0);
+  const double false_marks = trial_sum(t, kScoreFalseMarks).value_or(0.0);
+  std::string out = fmt::format("Found {:g} of {:g} lesion{}", found, lesions, lesions == 1.0 ? "" : "s");
+  if (const auto accuracy = trial_sum(t, kScoreSeverityAccuracy); accuracy && found > 0) {
+    const double wrong = std::round(found - *accuracy * found);
+    out += wrong > 0 ? fmt::format(" ({:g} graded wrong)", wrong) : std::string(" (all graded right)");
+  }
+  out +=
+      "; " + (false_marks > 0 ? count_of(false_marks, "false mark", "false marks") : "no false marks") + ".";
+  const auto soft = trial_sum(t, kScoreSoftTissueTime);
+  if (soft && *soft > 0)
+    out += fmt::format(" Pressed on gum or tongue for {:.2f} s (up to {:.1f} N).", *soft,
+                       trial_sum(t, kScoreSoftTissuePeak).value_or(0.0));
+  else if (soft)
+    out += " Never pressed on gum or tongue.";
+  const auto enamel = trial_sum(t, kScoreEnamelExcessTime);
+  if (enamel && *enamel > 0)
+    out += fmt::format(" Pushed healthy tooth harder than the force limit for {:.2f} s (up to {:.1f} N).",
+                       *enamel, trial_sum(t, kScoreEnamelPeak).value_or(0.0));
+  if (const auto blocked = trial_sum(t, kScoreBlockedInsertions); blocked && *blocked > 0)
+    out += " " + count_of(*blocked, "push on caries", "pushes on caries") +
+           " held off by the tool's posture (blocked).";
+  return out;
+}
+
+// Per trainee and case: the counts, the times and force in seconds and newtons, and the summary.
+ReportTable cases_table(const Participants& people) {
+  ReportTable table{
+      "cases",
+      "Cases, per trainee",
+      "Each trainee's diagnosis cases in the order they did them (case 1, 2, ...; the study "
+      "trial is the case's number in its run): lesions found and missed, false "
+      "marks, the mean time to find a lesion, soft-tissue damage and excess force, and a summary "
+      "in words (the definitions above).",
+      {},
+      {}};
+  table.section = kSectionGradebook;
+  table.columns = {{"participant", "Trainee", 0},
+                   {"station", "Station", 0},
+                   {"study", "Study", 0},
+                   {"case", "Case", 0},
+                   {"trial", "Study trial", 0},
+                   {"lesions", "Lesions", 0},
+                   {"found", "Found", 0},
+                   {"missed", "Missed", 0},
+                   {"false_marks", "False marks", 0},
+                   {"time_per_lesion_s", "Time per lesion (s)", 1},
+                   {"case_time_s", "Case time (s)", 1},
+                   {"soft_tissue_time_s", "Soft-tissue time (s)", 2},
+                   {"enamel_excess_time_s", "Excess-force time (s)", 2},
+                   {"summary", "In words", 0}};
+  for (const auto& [who, trials] : people) {
+    std::size_t index = 0;
+    for (const StudyTrial* t : diagnosis_cases(trials)) {
+      const Summary times = summarize(values_of({t}, kScoreTimeToDetection, nullptr));
+      table.rows.push_back({text(who), text(t->station), text(t->study), integer(++index), id(t->trial),
+                            number(trial_sum(*t, kScoreLesions)), number(trial_sum(*t, kScoreDetected)),
+                            number(trial_sum(*t, kScoreMissed)), number(trial_sum(*t, kScoreFalseMarks)),
+                            number(times.mean), number(trial_sum(*t, kScoreCaseTime)),
+                            number(trial_sum(*t, kScoreSoftTissueTime)),
+                            number(trial_sum(*t, kScoreEnamelExcessTime)), text(case_summary(*t))});
+    }
+  }
+  return table;
+}
+
+// Per trainee, case and lesion: found or missed, the grade given, the time it was found; then the case's
+// false marks. From the case's recorded lesions and marks (trials.answers); `unrecorded` counts the
+// cases that lack them.
+ReportTable lesions_table(const Participants& people, std::size_t& unrecorded) {
+  ReportTable table{
+      "lesions",
+      "Lesions found and missed",
+      "Each lesion of each case: where it was, its severity, whether the trainee found it (a mark "
+      "in contact within the study's margin of it), the grade they gave and when; then each false "
+      "mark of the case.",
+      {},
+      {}};
+  table.section = kSectionGradebook;
+  table.columns = {{"participant", "Trainee", 0}, {"case", "Case", 0},         {"lesion", "Lesion", 0},
+                   {"site", "Site", 0},           {"severity", "Severity", 0}, {"result", "Result", 0},
+                   {"marked_as", "Marked as", 0}, {"grade", "Grade", 0},       {"time_s", "Time (s)", 1}};
+  unrecorded = 0;
+  for (const auto& [who, trials] : people) {
+    std::int64_t index = 0;
+    for (const StudyTrial* t : diagnosis_cases(trials)) {
+      ++index;  // the case's number in the cases table
+      if (!t->diagnosis_case) {
+        ++unrecorded;
+        continue;
+      }
+      const RecordedCase& c = *t->diagnosis_case;
+      for (std::size_t k = 0; k < c.lesions.size(); ++k) {
+        const RecordedLesion& l = c.lesions[k];
+        const auto first = std::find_if(c.marks.begin(), c.marks.end(), [&](const RecordedMark& m) {
+          return m.first && m.lesion == static_cast<int>(k + 1);
+        });
+        if (first == c.marks.end()) {
+          table.rows.push_back({text(who), id(index), integer(k + 1), text(l.site), text(l.severity),
+                                text("missed"), Cell{}, Cell{}, Cell{}});
+        } else {
+          table.rows.push_back({text(who), id(index), integer(k + 1), text(l.site), text(l.severity),
+                                text("found"), text(first->grade),
+                                text(first->grade == l.severity ? "right" : "wrong"), real(first->t)});
+        }
+      }
+      for (const RecordedMark& m : c.marks)
+        if (m.lesion == 0)
+          table.rows.push_back({text(who), id(index), Cell{}, Cell{}, Cell{},
+                                text(m.contact ? "false mark" : "false mark (in the air)"), text(m.grade),
+                                Cell{}, real(m.t)});
+    }
+  }
+  return table;
+}
+
+// One graded measure: its key, its words, how a value compares with a criterion, the expert's figure.
+struct Measure {
+  const char* key;
+  const char* definition;
+  bool at_least;       // the criterion is a minimum (else a maximum)
+  const char* unit;    // "" or " s"
+  const char* expert;  // the paper's figure (§5.3), or ""
+};
+constexpr Measure kMeasures[] = {
+    {"detection_rate", "lesions found / lesions, over all cases", true, "",
+     "1 (the paper's expert found every lesion, §5.3)"},
+    {"severity_accuracy", "found lesions graded right / found lesions", true, "", ""},
+    {"false_marks", "most false marks in one case", false, "", ""},
+    {"time_per_lesion", "mean time to find a lesion, over the found lesions", false, " s",
+     "under 30 s per lesion (the paper's expert, §5.3)"},
+    {"soft_tissue_time", "most time pressing on gum or tongue in one case", false, " s", ""},
+};
+
+// A trainee's values of kMeasures over their cases.
+std::vector<std::optional<double>> measures_of(const std::vector<const StudyTrial*>& cases) {
+  double lesions = 0, found = 0, right = 0;
+  std::optional<double> most_false, most_soft;
+  for (const StudyTrial* t : cases) {
+    lesions += trial_sum(*t, kScoreLesions).value_or(0.0);
+    const double f = trial_sum(*t, kScoreDetected).value_or(0.0);
+    found += f;
+    right += std::round(trial_sum(*t, kScoreSeverityAccuracy).value_or(0.0) * f);
+    if (const auto v = trial_sum(*t, kScoreFalseMarks)) most_false = std::max(most_false.value_or(0.0), *v);
+    if (const auto v = trial_sum(*t, kScoreSoftTissueTime)) most_soft = std::max(most_soft.value_or(0.0), *v);
+  }
+  const Summary times = summarize(values_of(cases, kScoreTimeToDetection, nullptr));
+  return {lesions > 0 ? std::optional(found / lesions) : std::nullopt,
+          found > 0 ? std::optional(right / found) : std::nullopt, most_false, times.mean, most_soft};
+}
+
+// The course's criteria in kMeasures' order.
+std::vector<std::optional<double>> criteria_values(const PassCriteria* c) {
+  if (c == nullptr) return std::vector<std::optional<double>>(std::size(kMeasures));
+  return {c->detection_rate, c->severity_accuracy,
+          c->false_marks ? std::optional<double>(*c->false_marks) : std::nullopt, c->time_per_lesion,
+          c->soft_tissue_time};
+}
+
+// Pass/fail per trainee and criterion (gradebook.csv: what a school's gradebook imports), and per
+// trainee in one line (`passed`). Without criteria the values and the expert's figures only.
+std::pair<ReportTable, ReportTable> gradebook_tables(const Participants& people,
+                                                     const PassCriteria* criteria) {
+  ReportTable book{"gradebook",
+                   "Gradebook: each trainee against each criterion",
+                   "One row per trainee and criterion (gradebook.csv imports into a school's gradebook): the "
+                   "trainee's value over their diagnosis cases, what the course requires, the paper's expert "
+                   "for reference, and pass or fail; the row `overall` passes when every criterion does.",
+                   {},
+                   {}};
+  book.section = kSectionGradebook;
+  book.columns = {{"participant", "Trainee", 0},   {"criterion", "Criterion", 0},
+                  {"definition", "Definition", 0}, {"value", "Value", 2},
+                  {"required", "Required", 0},     {"expert", "Expert (paper)", 0},
+                  {"result", "Result", 0},         {"note", "Note", 0}};
+  ReportTable passed{
+      "passed",
+      "Who passed",
+      "Per trainee: their diagnosis cases, the lesions found, and whether they met every criterion "
+      "of the course (those not met are named).",
+      {},
+      {}};
+  passed.section = kSectionGradebook;
+  passed.columns = {{"participant", "Trainee", 0}, {"cases", "Cases", 0},   {"found", "Lesions found", 0},
+                    {"lesions", "Lesions", 0},     {"result", "Result", 0}, {"not_met", "Not met", 0}};
+  const std::vector<std::optional<double>> required = criteria_values(criteria);
+  for (const auto& [who, trials] : people) {
+    const std::vector<const StudyTrial*> cases = diagnosis_cases(trials);
+    if (cases.empty()) continue;
+    const std::vector<std::optional<double>> values = measures_of(cases);
+    std::string not_met;
+    for (std::size_t i = 0; i < std::size(kMeasures); ++i) {
+      const Measure& m = kMeasures[i];
+      Cell need, result, note;
+      if (required[i]) {
+        need = text(fmt::format("{} {:g}{}", m.at_least ? "at least" : "at most", *required[i], m.unit));
+        const bool pass = values[i] && (m.at_least ? *values[i] >= *required[i] : *values[i] <= *required[i]);
+        result = text(pass ? "pass" : "fail");
+        if (!values[i]) note = text(i == 0 ? "no lesion in the cases" : "no lesion found");
+        if (!pass) not_met += (not_met.empty() ? "" : ", ") + std::string(m.key);
+      }
+      book.rows.push_back({text(who), text(m.key), text(m.definition), number(values[i]), need,
+                           text(m.expert), result, note});
+    }
+    double lesions = 0, found = 0;
+    for (double v : values_of(cases, kScoreLesions, nullptr)) lesions += v;
+    for (double v : values_of(cases, kScoreDetected, nullptr)) found += v;
+    const Cell verdict = criteria ? text(not_met.empty() ? "pass" : "fail") : Cell{};
+    if (criteria)
+      book.rows.push_back({text(who), text("overall"), text("every criterion above met"), Cell{}, Cell{},
+                           Cell{}, verdict, Cell{}});
+    passed.rows.push_back(
+        {text(who), integer(cases.size()), real(found), real(lesions), verdict, text(not_met)});
+  }
+  if (criteria == nullptr) passed.rows.clear();  // nothing to pass without criteria
+  return {std::move(book), std::move(passed)};
+}
+
+// Every score the page shows, in one line each.
+std::vector<Definition> definitions() {
+  return {
+      {"found / missed",
+       "a lesion is found when the trainee marks it with the tool touching the tooth, within the "
+       "study's margin (0.5 mm) of the lesion; only its first mark counts"},
+      {"false mark", "a mark near no lesion (or made with the tool in the air)"},
+      {"grade right / wrong", "whether the grade (mild or severe) of a lesion's first mark is its severity"},
+      {"detection rate", "lesions found / lesions; the paper's expert found every lesion (1.0, §5.3)"},
+      {"severity accuracy", "found lesions graded right / found lesions"},
+      {"time to detection, time per lesion",
+       "seconds from the start of the case to the mark that found a lesion; the paper's expert took under 30 "
+       "s "
+       "per lesion (§5.3)"},
+      {"case time", "seconds until the trainee ended the case (or its time ran out)"},
+      {"soft-tissue time",
+       "seconds the tool pressed on gum or tongue harder than the threshold (1 N unless the "
+       "study sets it): damage to soft tissue"},
+      {"soft-tissue peak", "the largest force (N) on gum or tongue in the case"},
+      {"excess-force time (enamel excess)",
+       "seconds the tool pushed on healthy tooth harder than the force limit (4 N unless the study sets it): "
+       "risk of damaging sound enamel"},
+      {"enamel peak", "the largest force (N) on healthy tooth in the case"},
+      {"blocked insertions",
+       "pushes on caries that did not enter because the tool's posture was wrong (the shank "
+       "against a neighbouring tooth, paper Fig. 17b)"},
+      {"μs, μd", "static and dynamic friction the trainee tuned to feel like the lesion (Table 1)"},
+      {"k_c, k_e", "penetration and contact stiffness (N/mm) the trainee tuned (Table 2)"},
+      {"boundary points", "one point per trial with all three hidden shapes named right (§4.2.2)"},
+      {"slope per trial",
+       "the least-squares change of a score from one trial to the next (positive: rising)"},
+      {"mean ± SD",
+       "the mean over the trials and the sample standard deviation; cohort: over the trainees' means"},
+  };
+}
+
 }  // namespace
 
-Report build_report(MergedStudies merged) {
+Report build_report(MergedStudies merged, const PassCriteria* criteria) {
   Report report;
   const Participants people = by_participant(merged.finished);
-  report.tables.push_back(inputs_table(merged));
+  // The gradebook first (who passed, each case and lesion), then the research tables, then the inputs.
+  report.definitions = definitions();
+  report.graded = criteria != nullptr;
+  auto [book, passed] = gradebook_tables(people, criteria);
+  report.tables.push_back(std::move(passed));
+  report.tables.push_back(std::move(book));
+  report.tables.push_back(cases_table(people));
+  std::size_t unrecorded = 0;
+  report.tables.push_back(lesions_table(people, unrecorded));
   report.tables.push_back(tuning_table(
       people, "table1_roughness", "Table 1: tuned friction coefficients (§4.1.2)",
       "Per participant and level, mean ± SD of the tuned static and dynamic friction coefficients over "
@@ -505,8 +787,11 @@ Report build_report(MergedStudies merged) {
   curve.in_html = false;
   report.tables.push_back(learning_summary_table(curve));
   report.tables.push_back(std::move(curve));
+  report.tables.push_back(inputs_table(merged));
   report.tables.push_back(unfinished_table(merged));
   report.tables.push_back(duplicates_table(merged));
+  for (std::size_t i = report.tables.size() - 3; i < report.tables.size(); ++i)
+    report.tables[i].section = kSectionInputs;
 
   // What a reader should know before reading the numbers.
   for (const MergedStudies::Input& in : merged.inputs) {
@@ -531,6 +816,11 @@ Report build_report(MergedStudies merged) {
     report.warnings.push_back(std::to_string(merged.unfinished.size()) +
                               " unfinished trial(s) listed and left out of the statistics");
   if (merged.finished.empty()) report.warnings.push_back("no finished trials: every table is empty");
+  if (unrecorded > 0)
+    report.warnings.push_back(std::to_string(unrecorded) +
+                              " diagnosis case(s) recorded without their lesions and marks (answers): "
+                              "counted, but not listed lesion by lesion");
+
   report.merged = std::move(merged);
   return report;
 }

@@ -163,10 +163,9 @@ bool ends_with(const std::string& s, std::string_view suffix) {
 
 // A table in HTML: a KEY_mean column followed by KEY_sd is one "mean ± SD" cell.
 std::string table_html(const ReportTable& table) {
-  std::string out = "<section id=\"" + table.name + "\">\n<h2>" + html_escape(table.title) + "</h2>\n<p>" +
+  std::string out = "<section id=\"" + table.name + "\">\n<h3>" + html_escape(table.title) + "</h3>\n<p>" +
                     html_escape(table.caption) + " <span class=\"files\">(" + table.name +
                     ".csv)</span></p>\n";
-  if (table.rows.empty()) return out + "<p class=\"empty\">No data.</p>\n</section>\n";
   if (!table.in_html)
     return out + "<p class=\"files\">" + std::to_string(table.rows.size()) + " rows in " + table.name +
            ".csv and report.json.</p>\n</section>\n";
@@ -210,6 +209,11 @@ constexpr FigurePlace kFigurePlaces[] = {
     {"report-boundary", "boundary",
      "Boundary score per participant and the share of trials each shape was named right."},
     {"report-diagnosis", "diagnosis", "Detection rate and time to detection per participant."},
+    {"report-cases", "lesions",
+     "Each case seen from above: the teeth (drawn from the scene's meshes), the case's lesions (circles: "
+     "blue "
+     "mild, red severe, filled when found) and the trainee's marks (+ mild, x severe; green found a lesion, "
+     "grey again on a found one, black false)."},
     {"report-learning", "learning_curve",
      "Learning curves: each participant's scores per trial, in time order."},
 };
@@ -234,6 +238,8 @@ std::string report_html(const Report& report, const std::vector<fs::path>& figur
       "thead th{background:#eef}\n"
       "tr.cohort td{font-weight:bold;background:#f6f6f6}\n"
       ".warning{color:#a40}\n.files{color:#777;font-size:0.9em}\n.empty{color:#777}\n"
+      "dt{font-weight:bold;margin-top:0.3em}\ndd{margin-left:1.5em}\n"
+      "td:last-child{white-space:normal}\n"
       "figure{margin:1em 0}\nimg{max-width:100%}\nfigcaption{color:#555;font-size:0.9em}\n"
       "</style>\n</head>\n<body>\n<h1>cariesim report</h1>\n";
   out += "<p>" + std::to_string(report.merged.inputs.size()) + " database(s), " +
@@ -246,15 +252,36 @@ std::string report_html(const Report& report, const std::vector<fs::path>& figur
     for (const std::string& w : report.warnings) out += "<li class=\"warning\">" + html_escape(w) + "</li>\n";
     out += "</ul>\n";
   }
+  // The parts in order, each with its tables that hold rows (an empty one is left off: its CSV and
+  // JSON entry stay) and the figures drawn from them; the definitions after the gradebook.
   std::vector<bool> placed(figures.size(), false);
-  for (const ReportTable& table : report.tables) {
-    out += table_html(table);
-    for (std::size_t i = 0; i < figures.size(); ++i)
-      for (const FigurePlace& place : kFigurePlaces)
-        if (!placed[i] && figures[i].stem() == place.stem && table.name == place.after_table) {
-          out += figure_html(figures[i], place.caption);
-          placed[i] = true;
-        }
+  for (const char* part : {kSectionGradebook, kSectionResearch, kSectionInputs}) {
+    std::string body;
+    for (const ReportTable& table : report.tables) {
+      if (table.section != part || table.rows.empty()) continue;
+      body += table_html(table);
+      for (std::size_t i = 0; i < figures.size(); ++i)
+        for (const FigurePlace& place : kFigurePlaces)
+          if (!placed[i] && figures[i].stem().string().starts_with(place.stem) &&
+              table.name == place.after_table) {
+            body += figure_html(figures[i], place.caption);
+            placed[i] = true;
+          }
+    }
+    const bool gradebook = std::string_view(part) == kSectionGradebook;
+    if (gradebook && !report.graded && !body.empty())
+      body =
+          "<p class=\"empty\">No pass/fail: the course gives no criteria (give <code>--course FILE</code> "
+          "with a <code>criteria</code> section, docs/instructors.md).</p>\n" +
+          body;
+    if (!body.empty())
+      out += "<section class=\"part\">\n<h2>" + html_escape(part) + "</h2>\n" + body + "</section>\n";
+    if (gradebook) {
+      out += "<section id=\"definitions\">\n<h2>What each score means</h2>\n<dl>\n";
+      for (const Definition& d : report.definitions)
+        out += "<dt>" + html_escape(d.term) + "</dt><dd>" + html_escape(d.meaning) + "</dd>\n";
+      out += "</dl>\n</section>\n";
+    }
   }
   for (std::size_t i = 0; i < figures.size(); ++i)
     if (!placed[i]) out += figure_html(figures[i], "Figure");
@@ -273,6 +300,11 @@ std::string report_json(const Report& report, const std::vector<fs::path>& figur
   json.end_array();
   json.key("figures").begin_array();
   for (const fs::path& f : figures) json.value(f.filename().string());
+  json.end_array();
+  json.field("graded", report.graded);
+  json.key("definitions").begin_array();
+  for (const Definition& d : report.definitions)
+    json.begin_object().field("term", d.term).field("meaning", d.meaning).end_object();
   json.end_array();
   json.key("tables").begin_object();
   for (const ReportTable& table : report.tables) {

@@ -13,6 +13,7 @@
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/io/sqlite.hpp"
+#include "cariesim/io/yaml.hpp"
 #include "cariesim/training/report.hpp"
 #include "cariesim/training/run.hpp"
 #include "training/study_schema.hpp"
@@ -73,6 +74,77 @@ void check_score(const TrialScore& s, const ScoreRule& rule, const std::string& 
                             rule.unit.empty() ? "" : " " + std::string(rule.unit)));
 }
 
+// Bounds of a recorded case (a station writes a handful of lesions and marks per case).
+constexpr std::uintmax_t kMaxAnswersBytes = std::uintmax_t{4} << 20;
+constexpr std::size_t kMaxCaseLesions = 1000;
+constexpr std::size_t kMaxCaseMarks = 100000;
+constexpr double kMaxMarkTime = 1e6;       // s, as a score's time (study_schema.cpp)
+constexpr double kMaxTipCoordinate = 1e4;  // mm
+
+// "mild" or "severe", else refused by path.
+std::string grade_text(const io::Reader& r, const YAML::Node& node, const std::string& path) {
+  std::string g = r.text(node, path);
+  if (g != "mild" && g != "severe") r.fail(node, path, "'" + g + "' is not a grade (mild, severe)");
+  return g;
+}
+
+// A finished diagnosis trial's answers (docs/training.md, "the study database"): the case's lesions
+// and the marks, each field of its type and range; keys this cariesim does not read (a later one's)
+// are left alone. A trial recorded without them (`{}`) has no recorded case.
+std::optional<RecordedCase> parse_case(const std::string& text, const std::string& at) try {
+  const YAML::Node root = io::parse_document(text, at, kMaxAnswersBytes);
+  const io::Reader r(at);
+  if (!root.IsMap()) r.fail(root, "answers", "expected a JSON object");
+  const YAML::Node lesions = root["lesions"];
+  if (!lesions.IsDefined()) return std::nullopt;
+  RecordedCase out;
+  r.require_sequence(lesions, "lesions");
+  if (lesions.size() > kMaxCaseLesions)
+    r.fail(lesions, "lesions", fmt::format("{} lesions, more than {}", lesions.size(), kMaxCaseLesions));
+  for (std::size_t i = 0; i < lesions.size(); ++i) {
+    const std::string path = io::indexed("lesions", i);
+    if (!lesions[i].IsMap()) r.fail(lesions[i], path, "expected an object");
+    RecordedLesion l;
+    l.site = r.text(lesions[i]["site"], path + ".site");
+    l.severity = grade_text(r, lesions[i]["severity"], path + ".severity");
+    out.lesions.push_back(std::move(l));
+  }
+  const YAML::Node marks = root["marks"];
+  if (!marks.IsDefined()) r.fail(root, "marks", "missing (the case has lesions)");
+  r.require_sequence(marks, "marks");
+  if (marks.size() > kMaxCaseMarks)
+    r.fail(marks, "marks", fmt::format("{} marks, more than {}", marks.size(), kMaxCaseMarks));
+  std::vector<bool> found(out.lesions.size(), false);
+  for (std::size_t i = 0; i < marks.size(); ++i) {
+    const std::string path = io::indexed("marks", i);
+    const YAML::Node& n = marks[i];
+    if (!n.IsMap()) r.fail(n, path, "expected an object");
+    RecordedMark m;
+    m.t = r.number_in(n["t"], path + ".t", 0.0, kMaxMarkTime, "s");
+    m.grade = grade_text(r, n["grade"], path + ".grade");
+    m.contact = r.boolean(n["contact"], path + ".contact");
+    const Vec3 tip = r.vec3(n["tip"], path + ".tip");
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(tip[k]) > kMaxTipCoordinate)
+        r.fail(n["tip"], path + ".tip", fmt::format("{} mm is out of range", tip[k]));
+      m.tip[k] = tip[k];
+    }
+    if (const YAML::Node lesion = n["lesion"]; lesion.IsDefined() && !lesion.IsNull()) {
+      m.lesion = static_cast<int>(
+          r.integer_in(lesion, path + ".lesion", 1, static_cast<std::int64_t>(out.lesions.size())));
+      // Only a lesion's first mark finds it (docs/training.md, "Scores").
+      m.first = r.boolean(n["first"], path + ".first");
+      if (m.first && found[static_cast<std::size_t>(m.lesion - 1)])
+        r.fail(n["first"], path + ".first", fmt::format("lesion {} has an earlier first mark", m.lesion));
+      if (m.first) found[static_cast<std::size_t>(m.lesion - 1)] = true;
+    }
+    out.marks.push_back(std::move(m));
+  }
+  return out;
+} catch (const YAML::Exception& e) {
+  throw Error(fmt::format("{}: not the answers a station writes: {}", at, e.what()));
+}
+
 // Trial results waiting beside a database (run.cpp writes them while it is locked), counted up to a
 // bound; they are read only by the run that merges them.
 std::size_t count_pending(const fs::path& database) {
@@ -120,7 +192,7 @@ std::vector<StudyTrial> read_study_database(const fs::path& file) {
   {
     Statement rows(
         *db,
-        "SELECT id, station, participant, study, kind, trial, seed, started_at, ended_at FROM trials"
+        "SELECT id, station, participant, study, kind, trial, seed, started_at, ended_at, answers FROM trials"
         " ORDER BY id");
     int rc = SQLITE_ROW;
     while ((rc = rows.step()) == SQLITE_ROW) {
@@ -141,6 +213,9 @@ std::vector<StudyTrial> read_study_database(const fs::path& file) {
       // A trainee's trial that never ended keeps kSeedNotWritten (run.hpp); any other seed is >= 0.
       if (t.seed < 0 && !(t.seed == kSeedNotWritten && !t.ended_at))
         throw Error(at("seed") + ": " + std::to_string(t.seed) + " is not a trial seed (>= 0)");
+      // A finished diagnosis case's lesions and marks, for the gradebook.
+      if (t.ended_at && t.kind == kKindDiagnosis)
+        t.diagnosis_case = parse_case(text_column(rows, 9, at("answers")), at("answers"));
       by_id[t.id] = trials.size();
       trials.push_back(std::move(t));
     }

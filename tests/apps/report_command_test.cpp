@@ -14,9 +14,10 @@
 #include <vector>
 
 #include "apps/apps_support.hpp"
+#include "support/command.hpp"
+#include "support/csv.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
-#include "support/command.hpp"
 
 namespace cariesim {
 namespace {
@@ -95,9 +96,10 @@ TEST_F(ReportCommand, DocumentedExampleRuns) {
   const test::CommandOutput made = test::run_command({"/usr/bin/python3", script, (dir_ / "class").string()});
   ASSERT_EQ(made.status, 0) << made.how << "\n" << made.err;
   const fs::path out = dir_ / "class" / "report";
-  const test::CommandResult r = test::run_cariesim("report '" + (dir_ / "class" / "station-a.db").string() +
-                                                       "' '" + (dir_ / "class" / "station-b.db").string() +
-                                                       "' --out '" + out.string() + "' --no-figures");
+  const test::CommandResult r = test::run_cariesim(
+      "report '" + (dir_ / "class" / "station-a.db").string() + "' '" +
+      (dir_ / "class" / "station-b.db").string() + "' --course '" +
+      (dir_ / "class" / "course.yaml").string() + "' --out '" + out.string() + "' --no-figures");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("report: 2 database(s), 90 finished trial(s), 1 unfinished, 0 duplicate row(s)"),
             std::string::npos)
@@ -108,6 +110,88 @@ TEST_F(ReportCommand, DocumentedExampleRuns) {
     EXPECT_NE(anova.find(std::string(parameter)), std::string::npos) << anova;
   EXPECT_NE(anova.find(",5,5,"), std::string::npos) << anova;
   EXPECT_NE(anova.find(",1,8,"), std::string::npos) << anova;
+  // The gradebook: five dentists x (four criteria of the example's course + overall), each with a
+  // verdict; twelve lesions per dentist, listed one by one.
+  const auto book = test::parse_rfc4180(read_text(out / "gradebook.csv"));
+  ASSERT_EQ(book.size(), 1U + 5U * 6U);
+  for (std::size_t i = 1; i < book.size(); ++i)
+    if (book[i][1] != "severity_accuracy") {
+      EXPECT_TRUE(book[i][6] == "pass" || book[i][6] == "fail") << i;
+    }
+  const auto passed = test::parse_rfc4180(read_text(out / "passed.csv"));
+  ASSERT_EQ(passed.size(), 6U);
+  std::size_t lesion_rows = 0;
+  for (const auto& row : test::parse_rfc4180(read_text(out / "lesions.csv")))
+    lesion_rows += (row[5] == "found" || row[5] == "missed") ? 1 : 0;
+  EXPECT_EQ(lesion_rows, 5U * 4U * 3U);
+
+  // As docs/reports.md runs it, with the figures: one case picture per dentist (the paper's case
+  // rebuilt from the built-in study: every lesion placed), the four figures of the research tables.
+  if (!test::python3_imports("matplotlib")) GTEST_SKIP() << "/usr/bin/python3 with matplotlib is missing";
+  const fs::path drawn = dir_ / "class" / "drawn";
+  const test::CommandResult f =
+      test::run_cariesim("report '" + (dir_ / "class" / "station-a.db").string() + "' '" +
+                         (dir_ / "class" / "station-b.db").string() + "' --course '" +
+                         (dir_ / "class" / "course.yaml").string() + "' --out '" + drawn.string() + "'");
+  ASSERT_EQ(f.status, 0) << f.err;
+  EXPECT_NE(f.err.find("(9 figure(s))"), std::string::npos) << f.err;
+  EXPECT_EQ(f.err.find("case picture(s) without their lesions"), std::string::npos) << f.err;
+  for (int i = 1; i <= 5; ++i)
+    EXPECT_TRUE(fs::exists(drawn / ("report-cases-" + std::to_string(i) + ".png"))) << i;
+  std::size_t placed = 0;
+  for (const auto& row : test::parse_rfc4180(read_text(drawn / "case_points.csv")))
+    placed += row[3] == "lesion" ? 1 : 0;
+  EXPECT_EQ(placed, 5U * 4U * 3U);
+}
+
+// `--course` grades with the course's criteria; a course with a bad criterion is refused naming
+// file, line, column and field before anything is written.
+TEST_F(ReportCommand, CourseCriteriaGradeTheTrainees) {
+  {
+    test::StudyDbWriter a(dir_ / "station-a.db", "station-a");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            {{"lesions", "", 3, "count"},
+             {"detected", "", 3, "count"},
+             {"missed", "", 0, "count"},
+             {"false_marks", "", 0, "count"},
+             {"detection_rate", "", 1.0, "fraction"},
+             {"time_to_detection", "severe", 20, "s"},
+             {"time_to_detection", "severe", 25, "s"},
+             {"time_to_detection", "mild", 30, "s"}});
+    a.trial("P2", "diagnosis", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
+            {{"lesions", "", 3, "count"},
+             {"detected", "", 1, "count"},
+             {"missed", "", 2, "count"},
+             {"false_marks", "", 2, "count"},
+             {"detection_rate", "", 1.0 / 3.0, "fraction"},
+             {"time_to_detection", "severe", 80, "s"}});
+  }
+  const std::string hash =
+      "pbkdf2-sha256$600000$ba9f44571da1cd87db4514d1c8529d2c$"
+      "507309be11afaf095e2d9b42fbb6b0639f9e4c686035c1eb08d477ec3a119722";
+  const std::string head =
+      "course: Class\nstudy: diagnosis\nrecords: records\nstation: s1\ninstructor: " + hash + "\ncriteria:\n";
+  std::ofstream(dir_ / "course.yaml") << head << "  detection_rate: 1.0\n  time_per_lesion: 30\n";
+  const fs::path out = dir_ / "report";
+  test::CommandResult r =
+      test::run_cariesim("report '" + (dir_ / "station-a.db").string() + "' --course '" +
+                         (dir_ / "course.yaml").string() + "' --out '" + out.string() + "' --no-figures");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto passed = test::parse_rfc4180(read_text(out / "passed.csv"));
+  ASSERT_EQ(passed.size(), 3U);
+  EXPECT_EQ(passed[1], (std::vector<std::string>{"P1", "1", "3", "3", "pass", ""}));
+  EXPECT_EQ(passed[2],
+            (std::vector<std::string>{"P2", "1", "1", "3", "fail", "detection_rate, time_per_lesion"}));
+  EXPECT_NE(read_text(out / "report.html").find("<h3>Who passed</h3>"), std::string::npos);
+
+  std::ofstream(dir_ / "bad.yaml") << head << "  detection_rate: 2\n";
+  const fs::path bad_out = dir_ / "bad-report";
+  r = test::run_cariesim("report '" + (dir_ / "station-a.db").string() + "' --course '" +
+                         (dir_ / "bad.yaml").string() + "' --out '" + bad_out.string() + "'");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("bad.yaml:7:19: criteria.detection_rate: 2 is out of range [0, 1]"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(bad_out));
 }
 
 // A database that is not a study database: exit 2, the file named, no report folder written, and an

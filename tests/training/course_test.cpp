@@ -70,6 +70,33 @@ TEST(Course, ParsesEveryField) {
   EXPECT_FALSE(c.allows("../P01")) << "not an identifier";
 }
 
+// The optional pass/fail criteria of the report (docs/instructors.md "Pass or fail"): each read in
+// its range, absent ones not graded; a course without them grades nothing.
+TEST(Course, CriteriaAreReadStrictly) {
+  const Course c = parse_course(course_yaml("criteria:\n  detection_rate: 0.8\n  false_marks: 1\n"
+                                            "  time_per_lesion: 30\n"),
+                                "class/course.yaml");
+  ASSERT_TRUE(c.criteria.has_value());
+  EXPECT_EQ(c.criteria->detection_rate, 0.8);
+  EXPECT_EQ(c.criteria->false_marks, 1);
+  EXPECT_EQ(c.criteria->time_per_lesion, 30.0);
+  EXPECT_FALSE(c.criteria->severity_accuracy.has_value());
+  EXPECT_FALSE(c.criteria->soft_tissue_time.has_value());
+  EXPECT_FALSE(parse_course(course_yaml(), "class/course.yaml").criteria.has_value());
+
+  EXPECT_THAT(parse_error(course_yaml("criteria:\n  detection_rate: 1.5\n")),
+              HasSubstr("class/course.yaml:8:19: criteria.detection_rate: 1.5 is out of range [0, 1]"));
+  EXPECT_THAT(parse_error(course_yaml("criteria:\n  false_marks: 0.5\n")),
+              HasSubstr("criteria.false_marks: expected an integer"));
+  EXPECT_THAT(parse_error(course_yaml("criteria:\n  time_per_lesion: 0\n")),
+              HasSubstr("criteria.time_per_lesion"));
+  EXPECT_THAT(parse_error(course_yaml("criteria:\n  soft_tissue_time: -1\n")),
+              HasSubstr("criteria.soft_tissue_time: -1 is out of range"));
+  EXPECT_THAT(parse_error(course_yaml("criteria:\n  detection_rat: 1\n")), HasSubstr("detection_rate"));
+  EXPECT_THAT(parse_error(course_yaml("criteria: {}\n")), HasSubstr("criteria: no criterion given"));
+  EXPECT_THAT(parse_error(course_yaml("criteria: [1]\n")), HasSubstr("criteria"));
+}
+
 TEST(Course, WithoutAListAnyValidIdTakesPart) {
   const Course c = parse_course(course_yaml(), "course.yaml");
   EXPECT_TRUE(c.participants.empty());
@@ -327,6 +354,9 @@ TEST(Course, TheInstructorsPageExampleIsValid) {
   EXPECT_EQ(c.station, "chair-3");
   EXPECT_EQ(c.database(), fs::path("docs/records/chair-3.db"));
   EXPECT_EQ(c.participants.size(), 3u);
+  ASSERT_TRUE(c.criteria.has_value());
+  EXPECT_EQ(c.criteria->detection_rate, 1.0);
+  EXPECT_EQ(c.criteria->time_per_lesion, 30.0);
   EXPECT_NE(doc.find("hash of `change me please`"), std::string::npos);
   EXPECT_TRUE(verify_passphrase("change me please", c.instructor_hash));
   EXPECT_EQ(parse_passphrase_hash(c.instructor_hash).iterations, cariesim::training::kPassphraseIterations);

@@ -11,13 +11,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cariesim/common/error.hpp"
-#include "support/csv.hpp"
 #include "support/command.hpp"
+#include "support/csv.hpp"
 #include "support/files.hpp"
 #include "training/study_db_support.hpp"
 
@@ -316,7 +317,7 @@ TEST_F(ReportTest, TwoStationsGiveTheTablesByHand) {
   EXPECT_TRUE(has(html,
                   "<td>mu_s</td><td></td><td>0.225</td><td>0.725</td><td>2</td><td>2</td><td>0.2500</"
                   "td><td>0.0425</td><td>1</td><td>2</td><td>11.765</td><td>0.0755</td><td>no</td>"));
-  EXPECT_TRUE(has(html, "<h2>Boundary shapes"));
+  EXPECT_TRUE(has(html, "<h3>Boundary shapes"));
   EXPECT_TRUE(has(html, "13 rows in learning_curve.csv and report.json."));
   EXPECT_TRUE(has(html, "1 unfinished trial(s)"));
   EXPECT_FALSE(has(html, "<script"));
@@ -539,6 +540,315 @@ TEST_F(ReportTest, HostileNamesStayCellsAndReportJsonStaysJson) {
       test::run_command({"/usr/bin/python3", "-c", "import json,sys; json.load(open(sys.argv[1], encoding='utf-8'))",
                          (out / "report.json").string()});
   EXPECT_EQ(check.status, 0) << "report.json is not valid JSON in UTF-8: " << check.err;
+}
+
+// --- The gradebook (docs/reports.md, "The gradebook") ---
+
+// A diagnosis case's scores as a station writes them for `found` of three lesions, `false_marks`
+// false marks and the detection times `times` (s, mild, severe, mild order of the lesions found).
+std::vector<TrialScore> case_scores(int found, int false_marks, double accuracy,
+                                    const std::vector<std::pair<const char*, double>>& times,
+                                    double soft_tissue) {
+  std::vector<TrialScore> s = {score("lesions", "", 3, "count"),
+                               score("detected", "", found, "count"),
+                               score("missed", "", 3 - found, "count"),
+                               score("false_marks", "", false_marks, "count"),
+                               score("detection_rate", "", found / 3.0, "fraction"),
+                               score("case_time", "", 90, "s"),
+                               score("soft_tissue_time", "", soft_tissue, "s"),
+                               score("soft_tissue_peak_force", "", 1.5, "N"),
+                               score("enamel_excess_force_time", "", 0.0, "s"),
+                               score("enamel_peak_force", "", 2.0, "N"),
+                               score("blocked_insertions", "", 0, "count")};
+  if (found > 0) s.push_back(score("severity_accuracy", "", accuracy, "fraction"));
+  for (const auto& [level, t] : times) s.push_back(score("time_to_detection", level, t, "s"));
+  return s;
+}
+
+// The answers of the paper's case (#1 severe, #2 severe, #3 mild): lesion 1 found at 12 s graded
+// severe (right), lesion 3 found at 40 s graded severe (wrong), a second mark on lesion 1 (neither
+// counts), a false mark at 50 s; lesion 2 missed.
+constexpr const char* kPaperCaseAnswers =
+    R"({"lesions":[{"site":"46-occlusal","severity":"severe","size":2.2,"width":0,"depth":2.5},)"
+    R"({"site":"46-mesial","severity":"severe","size":2,"width":1.4,"depth":1.3},)"
+    R"({"site":"36-occlusal","severity":"mild","size":3,"width":0.8,"depth":1.2}],)"
+    R"("marks":[{"t":12,"grade":"severe","contact":true,"tip":[1,2,3],"lesion":1,"distance":0,"first":true},)"
+    R"({"t":20,"grade":"mild","contact":true,"tip":[1,2,3],"lesion":1,"distance":0,"first":false},)"
+    R"({"t":40,"grade":"severe","contact":true,"tip":[4,5,6],"lesion":3,"distance":0.2,"first":true},)"
+    R"({"t":50,"grade":"mild","contact":true,"tip":[9,9,9],"lesion":null,"distance":3.5,"first":false}],)"
+    R"("ended_at":90})";
+
+// Each lesion of each case is a row, found or missed, with its grade and time; false marks follow;
+// each case has its summary in words. (Main had only per-participant sums.)
+TEST_F(ReportTest, GradebookListsEachLesionFoundOrMissed) {
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 42, kPaperCaseAnswers);
+  }
+  const fs::path out = dir_ / "out";
+  write_report(build_report(merge_study_databases({dir_ / "a.db"})), out, {});
+  const auto lesions = read_csv(out / "lesions.csv");
+  ASSERT_EQ(lesions.size(), 4U);  // three lesions and one false mark
+  EXPECT_EQ(lesions[0].at("site"), "46-occlusal");
+  EXPECT_EQ(lesions[0].at("result"), "found");
+  EXPECT_EQ(lesions[0].at("marked_as"), "severe");
+  EXPECT_EQ(lesions[0].at("grade"), "right");
+  EXPECT_EQ(lesions[0].at("time_s"), "12");
+  EXPECT_EQ(lesions[1].at("site"), "46-mesial");
+  EXPECT_EQ(lesions[1].at("result"), "missed");
+  EXPECT_EQ(lesions[1].at("time_s"), "");
+  EXPECT_EQ(lesions[2].at("result"), "found");
+  EXPECT_EQ(lesions[2].at("grade"), "wrong");
+  EXPECT_EQ(lesions[2].at("time_s"), "40");
+  EXPECT_EQ(lesions[3].at("result"), "false mark");
+  EXPECT_EQ(lesions[3].at("time_s"), "50");
+
+  const std::string cases = read_text(out / "cases.csv");
+  EXPECT_TRUE(has(cases,
+                  "Found 2 of 3 lesions (1 graded wrong); 1 false mark. Pressed on gum or tongue "
+                  "for 0.40 s (up to 1.5 N)."));
+  const auto case_rows = read_csv(out / "cases.csv");
+  ASSERT_EQ(case_rows.size(), 1U);
+  EXPECT_EQ(case_rows[0].at("time_per_lesion_s"), "26");  // (12 + 40) / 2
+  const std::string html = read_text(out / "report.html");
+  EXPECT_TRUE(has(html, "<h2>Gradebook</h2>"));
+  EXPECT_TRUE(has(html, "<td>missed</td>"));
+}
+
+// The case pictures' data are drawn from the model: the built-in study's first case rebuilt from the
+// recorded seed places the paper's three lesions on the real-arch teeth (46 occlusal and mesial, 36
+// occlusal, snapped as the model builder snaps them), every tooth has an outline seen from above; a
+// recorded case the rebuild does not give keeps its marks, without lesions, and a warning says so.
+TEST_F(ReportTest, CasePicturesPlaceTheLesionsWhereTheModelDoes) {
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 42, kPaperCaseAnswers);
+    std::string other = kPaperCaseAnswers;
+    other.replace(other.find("46-occlusal"), 11, "47-occlusal");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
+            case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 43, other);
+  }
+  Report report = build_report(merge_study_databases({dir_ / "a.db"}));
+  EXPECT_EQ(add_case_views(report, {}), 2U);
+  const fs::path out = dir_ / "out";
+  write_report(report, out, {});
+  const auto points = read_csv(out / "case_points.csv");
+  std::vector<std::map<std::string, std::string>> lesions;
+  for (const auto& r : points)
+    if (r.at("what") == "lesion") lesions.push_back(r);
+  ASSERT_EQ(lesions.size(), 3U);  // the second case's lesions are not drawn
+  for (const auto& r : lesions) EXPECT_EQ(r.at("case"), "1");
+  // 46 is on the left of the arch's picture (x < 0), 36 on the right; the mesial lesion of 46 lies
+  // toward 45 (lower y) than its occlusal one.
+  EXPECT_LT(num(lesions[0], "x_mm"), -15.0);
+  EXPECT_LT(num(lesions[1], "y_mm"), num(lesions[0], "y_mm") - 2.0);
+  EXPECT_GT(num(lesions[2], "x_mm"), 15.0);
+  EXPECT_EQ(lesions[0].at("result"), "found");
+  EXPECT_EQ(lesions[1].at("result"), "missed");
+  EXPECT_EQ(lesions[0].at("size_mm"), "2.2");
+  std::size_t marks = 0;
+  for (const auto& r : points) marks += r.at("what") == "mark" ? 1 : 0;
+  EXPECT_EQ(marks, 8U);  // both cases' four marks
+  std::set<std::string> teeth;
+  for (const auto& r : read_csv(out / "case_outlines.csv")) teeth.insert(r.at("tooth"));
+  EXPECT_EQ(teeth.size(), 16U);
+  ASSERT_FALSE(report.warnings.empty());
+  EXPECT_THAT(report.warnings.back(), HasSubstr("1 case picture(s) without their lesions: P1 case 2"));
+  EXPECT_FALSE(has(read_text(out / "report.html"), "case_points"));  // data for the figure only
+}
+
+// A course's criteria grade each trainee: gradebook.csv holds one row per trainee and criterion (and
+// `overall`), passed.csv who passed; text from a database is a neutralised cell there too.
+TEST_F(ReportTest, CriteriaGradeEachTraineePassOrFail) {
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    // Good: every lesion of both cases found in under 30 s on average, graded right, no false mark.
+    a.trial("Good", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            case_scores(3, 0, 1.0, {{"severe", 10}, {"severe", 20}, {"mild", 30}}, 0.0));
+    a.trial("Good", "diagnosis", "diagnosis", 2, "2026-11-20T11:05:00Z", "2026-11-20T11:07:00Z",
+            case_scores(3, 0, 1.0, {{"severe", 15}, {"severe", 25}, {"mild", 35}}, 0.2));
+    // =Weak (a formula-leading name): 4 of 6 found, a false mark, 45 s per lesion, 2 s on the gum.
+    a.trial("=Weak", "diagnosis", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
+            case_scores(2, 1, 1.0, {{"severe", 40}, {"mild", 50}}, 2.0));
+    a.trial("=Weak", "diagnosis", "diagnosis", 2, "2026-11-20T12:05:00Z", "2026-11-20T12:07:00Z",
+            case_scores(2, 0, 0.5, {{"severe", 40}, {"mild", 50}}, 0.1));
+  }
+  PassCriteria criteria;
+  criteria.detection_rate = 1.0;
+  criteria.false_marks = 0;
+  criteria.time_per_lesion = 30.0;
+  criteria.soft_tissue_time = 1.0;
+  const fs::path out = dir_ / "out";
+  write_report(build_report(merge_study_databases({dir_ / "a.db"}), &criteria), out, {});
+
+  const auto book = test::parse_rfc4180(read_text(out / "gradebook.csv"));
+  ASSERT_EQ(book.size(), 1U + 2U * 6U) << read_text(out / "gradebook.csv");  // header, 2 x (5 + overall)
+  EXPECT_EQ(book[0], (std::vector<std::string>{"participant", "criterion", "definition", "value", "required",
+                                               "expert", "result", "note"}));
+  // Rows by participant: "=Weak" sorts before "Good"; its name is neutralised.
+  auto row = [&](const std::string& who, const std::string& criterion) {
+    for (const auto& r : book)
+      if (r[0] == who && r[1] == criterion) return r;
+    ADD_FAILURE() << "no row " << who << " " << criterion;
+    return std::vector<std::string>(8);
+  };
+  EXPECT_EQ(row("'=Weak", "detection_rate")[3], "0.6666666666666666");
+  EXPECT_EQ(row("'=Weak", "detection_rate")[4], "at least 1");
+  EXPECT_EQ(row("'=Weak", "detection_rate")[6], "fail");
+  EXPECT_THAT(row("'=Weak", "detection_rate")[5], HasSubstr("every lesion"));
+  EXPECT_EQ(row("'=Weak", "false_marks")[6], "fail");
+  EXPECT_EQ(row("'=Weak", "time_per_lesion")[3], "45");
+  EXPECT_EQ(row("'=Weak", "time_per_lesion")[6], "fail");
+  EXPECT_THAT(row("'=Weak", "time_per_lesion")[5], HasSubstr("under 30 s"));
+  EXPECT_EQ(row("'=Weak", "soft_tissue_time")[6], "fail");
+  EXPECT_EQ(row("'=Weak", "severity_accuracy")[6], "");      // not a criterion of this course
+  EXPECT_EQ(row("'=Weak", "severity_accuracy")[3], "0.75");  // 3 of the 4 found graded right
+  EXPECT_EQ(row("'=Weak", "overall")[6], "fail");
+  EXPECT_EQ(row("Good", "detection_rate")[6], "pass");
+  EXPECT_EQ(row("Good", "time_per_lesion")[3], "22.5");
+  EXPECT_EQ(row("Good", "time_per_lesion")[6], "pass");
+  EXPECT_EQ(row("Good", "soft_tissue_time")[3], "0.2");
+  EXPECT_EQ(row("Good", "overall")[6], "pass");
+
+  const auto passed = test::parse_rfc4180(read_text(out / "passed.csv"));
+  ASSERT_EQ(passed.size(), 3U);
+  EXPECT_EQ(passed[1][0], "'=Weak");
+  EXPECT_EQ(passed[1][4], "fail");
+  EXPECT_EQ(passed[1][5], "detection_rate, false_marks, time_per_lesion, soft_tissue_time");
+  EXPECT_EQ(passed[2][0], "Good");
+  EXPECT_EQ(passed[2][4], "pass");
+  EXPECT_TRUE(has(read_text(out / "report.html"), "<h3>Who passed</h3>"));
+
+  // Without criteria: the values and the expert's figures, no verdict.
+  const fs::path plain = dir_ / "plain";
+  write_report(build_report(merge_study_databases({dir_ / "a.db"})), plain, {});
+  const auto ungraded = test::parse_rfc4180(read_text(plain / "gradebook.csv"));
+  EXPECT_EQ(ungraded.size(), 1U + 2U * 5U);
+  for (std::size_t i = 1; i < ungraded.size(); ++i) EXPECT_EQ(ungraded[i][6], "") << i;
+  EXPECT_TRUE(has(read_text(plain / "report.html"), "No pass/fail"));
+}
+
+// A study without tuning or boundary data has no such tables on the page (main wrote "No data."
+// under each), the research section holds only what exists, and each score has its definition.
+TEST_F(ReportTest, TablesWithoutDataAreLeftOffThePage) {
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+            case_scores(3, 0, 1.0, {{"severe", 10}, {"severe", 20}, {"mild", 30}}, 0.0));
+  }
+  const fs::path out = dir_ / "out";
+  write_report(build_report(merge_study_databases({dir_ / "a.db"})), out, {});
+  const std::string html = read_text(out / "report.html");
+  EXPECT_FALSE(has(html, "No data."));
+  for (const char* absent : {"Table 1:", "Table 2:", "One-way ANOVA", "Boundary shapes", "Unfinished trials",
+                             "Duplicate trial rows"})
+    EXPECT_FALSE(has(html, absent)) << absent;
+  EXPECT_TRUE(has(html, "<h2>Research tables</h2>"));
+  EXPECT_TRUE(has(html, "Diagnosis"));
+  // Their CSVs stay (empty), for scripts that read them.
+  EXPECT_TRUE(fs::exists(out / "table1_roughness.csv"));
+  // Every score shown is defined on the page, in the order the gradebook shows them first.
+  EXPECT_TRUE(has(html, "<dt>blocked insertions</dt><dd>pushes on caries that did not enter"));
+  EXPECT_TRUE(has(html, "<dt>enamel peak</dt>"));
+  EXPECT_TRUE(has(html, "<dt>soft-tissue time</dt>"));
+  EXPECT_TRUE(has(read_text(out / "report.json"), "\"definitions\":[{\"term\":"));
+  EXPECT_LT(html.find("<h2>Gradebook</h2>"), html.find("<h2>Research tables</h2>"));
+}
+
+// A case's answers from a station are hostile input like its scores: every field is checked, and a
+// bad one is refused naming the file, the row, the column and the field; deep nesting is refused,
+// not recursed into.
+TEST_F(ReportTest, HostileCaseAnswersAreRefusedNamingTheField) {
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"lesions":[{"site":"x","severity":"evil"}],"marks":[]})", "lesions[0].severity"},
+      {R"({"lesions":[{"site":"x","severity":"mild"}],"marks":[{"t":1,"grade":"mild","contact":true,)"
+       R"("tip":[0,0,0],"lesion":7,"first":true}]})",
+       "marks[0].lesion"},
+      {R"({"lesions":[{"site":"x","severity":"mild"}],"marks":[{"t":1e400,"grade":"mild","contact":true,)"
+       R"("tip":[0,0,0],"lesion":null}]})",
+       "marks[0].t"},
+      {R"({"lesions":[{"site":"x","severity":"mild"}],"marks":[{"t":1,"grade":"mild","contact":true,)"
+       R"("tip":[0,0,1e300],"lesion":null}]})",
+       "marks[0].tip"},
+      {R"({"lesions":[{"site":"x","severity":"mild"}],"marks":[)"
+       R"({"t":1,"grade":"mild","contact":true,"tip":[0,0,0],"lesion":1,"first":true},)"
+       R"({"t":2,"grade":"mild","contact":true,"tip":[0,0,0],"lesion":1,"first":true}]})",
+       "marks[1].first"},
+      {R"({"lesions":[{"site":"x","severity":"mild"}]})", "marks"},
+      {R"([1, 2])", "answers"},
+      {std::string(100000, '[') + std::string(100000, ']'), "YAML syntax error"},
+  };
+  for (std::size_t i = 0; i < bad.size(); ++i) {
+    const fs::path db = dir_ / ("bad" + std::to_string(i) + ".db");
+    {
+      StudyDbWriter a(db, "chair-1");
+      a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+              case_scores(0, 0, 0, {}, 0.0), 42, bad[i].first);
+    }
+    try {
+      (void)merge_study_databases({db});
+      ADD_FAILURE() << "accepted: " << bad[i].first.substr(0, 200);
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(db.string() + ": trials, row 1, column answers")) << i;
+      EXPECT_THAT(e.what(), HasSubstr(bad[i].second)) << i;
+    }
+  }
+}
+
+// The figures: every legend entry has data (main drew a "mild" entry without bars when no mild lesion
+// was found), checked by running plot_report.py with matplotlib's savefig recording each legend's
+// entries and the data drawn for them.
+TEST_F(ReportTest, EveryLegendEntryOfTheFiguresHasData) {
+  if (!have_matplotlib()) GTEST_SKIP() << "/usr/bin/python3 with matplotlib is missing";
+  {
+    StudyDbWriter a(dir_ / "a.db", "chair-1");
+    // Only severe lesions found, by both trainees: no mild time to detection exists.
+    for (const char* who : {"P1", "P2"})
+      a.trial(who, "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+              case_scores(1, 0, 1.0, {{"severe", 10}}, 0.0));
+  }
+  const fs::path out = dir_ / "out";
+  write_report(build_report(merge_study_databases({dir_ / "a.db"})), out, {});
+  // A legend entry has data when its bars include one of non-zero height, or its line has points.
+  const std::string check = R"(
+import runpy, sys
+import matplotlib
+matplotlib.use("Agg")
+from matplotlib.figure import Figure
+from matplotlib.container import BarContainer
+empty = []
+real = Figure.savefig
+def savefig(self, name, *a, **k):
+    for ax in self.axes:
+        legend = ax.get_legend()
+        if legend is None: continue
+        labels = [t.get_text() for t in legend.get_texts()]
+        drawn = {c.get_label(): c for c in ax.containers}
+        drawn.update({l.get_label(): l for l in ax.lines})
+        for label in labels:
+            c = drawn.get(label)
+            if isinstance(c, BarContainer):
+                ok = any(p.get_height() > 0 for p in c.patches)
+            elif c is not None and hasattr(c, "get_xdata"):
+                ok = len(c.get_xdata()) > 0
+            else:
+                ok = c is not None
+            if not ok: empty.append("%s: %s" % (name, label))
+    return real(self, name, *a, **k)
+Figure.savefig = savefig
+sys.argv = ["plot_report.py", sys.argv[1]]
+runpy.run_path(SCRIPT, run_name="__main__")
+print("EMPTY:" + "|".join(empty))
+)";
+  const std::string script = std::string(CARIESIM_SOURCE_DIR) + "/apps/cariesim/plots/plot_report.py";
+  std::string code = check;
+  code.replace(code.find("SCRIPT"), 6, "'" + script + "'");
+  const test::CommandOutput r = test::run_command({"/usr/bin/python3", "-c", code, out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("EMPTY:\n")) << r.out;
+  EXPECT_TRUE(fs::exists(out / "report-diagnosis.png"));
 }
 
 TEST(ReportBase64, Rfc4648Vectors) {

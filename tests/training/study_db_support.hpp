@@ -29,15 +29,16 @@ class StudyDbWriter {
              "write the schema version");
   }
 
-  /// Adds a trial and its scores; returns its id.
+  /// Adds a trial and its scores (and its answers JSON, trials.answers); returns its id.
   std::int64_t trial(const std::string& participant, const std::string& study, const std::string& kind,
                      std::int64_t number, const std::string& started_at,
                      const std::optional<std::string>& ended_at,
-                     const std::vector<training::TrialScore>& scores, std::int64_t seed = 42) {
+                     const std::vector<training::TrialScore>& scores, std::int64_t seed = 42,
+                     const std::string& answers = "{}") {
     io::Statement insert(
         db_,
         "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at,"
-        " ended_at, recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, '{}', '{}')");
+        " ended_at, recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, ?, '{}')");
     insert.bind(0, station_);
     insert.bind(1, participant);
     insert.bind(2, study);
@@ -46,6 +47,7 @@ class StudyDbWriter {
     insert.bind(5, seed);
     insert.bind(6, started_at);
     if (ended_at) insert.bind(7, *ended_at);  // unbound stays NULL
+    insert.bind(8, answers);
     if (insert.step() != SQLITE_DONE) db_.fail("insert a trial");
     const std::int64_t id = sqlite3_last_insert_rowid(db_.get());
     io::Statement score(db_,

@@ -98,13 +98,18 @@ if diagnosis:
     left.set_ylim(0, 1.05)
     left.set_ylabel("detection rate")
     left.set_title("Lesions found (mean ± SD over cases)")
+    # A severity is drawn (and named in the legend) only where someone found a lesion of it; a
+    # participant without such a time gets no bar, not a bar of height 0.
     for offset, key, colour in ((-0.18, "time_to_detection_mild_s", "tab:blue"),
                                 (0.18, "time_to_detection_severe_s", "tab:red")):
-        right.bar([i + offset for i in x], [num(r[key + "_mean"]) or 0.0 for r in diagnosis],
-                  yerr=[num(r[key + "_sd"]) or 0.0 for r in diagnosis], width=0.34, capsize=3, color=colour,
-                  label=key.split("_")[-2])
+        pts = [(i + offset, num(r[key + "_mean"]), num(r[key + "_sd"]) or 0.0)
+               for i, r in zip(x, diagnosis) if num(r[key + "_mean"]) is not None]
+        if pts:
+            right.bar([p[0] for p in pts], [p[1] for p in pts], yerr=[p[2] for p in pts], width=0.34,
+                      capsize=3, color=colour, label=key.split("_")[-2])
     right.set_ylabel("time to detection (s)")
     right.set_title("Time to detection by severity")
+    right.axhline(30, color="k", ls=":", lw=1, label="expert: under 30 s (§5.3)")
     right.legend(fontsize=8)
     for ax in (left, right):
         ax.set_xticks(x)
@@ -112,29 +117,117 @@ if diagnosis:
         ax.grid(axis="y", alpha=0.3)
     save(fig, "report-diagnosis.png")
 
+# The case pictures: per trainee, each case seen from above: the teeth's outlines (from the scene's
+# meshes), the case's lesions (circles the lesion's size: blue mild, red severe; filled when found,
+# hollow when missed) and the marks (+ mild, x severe; green found a lesion, grey again on a found one,
+# black false). One figure per trainee, one small panel per case.
+outline_rows = rows("case_outlines")
+point_rows = rows("case_points")
+if point_rows:
+    from matplotlib.patches import Circle, Polygon
+    teeth = {}
+    for r in outline_rows:
+        teeth.setdefault(r["study"], {}).setdefault(r["tooth"], []).append((num(r["x_mm"]), num(r["y_mm"])))
+    trainees = []
+    for r in point_rows:
+        if r["participant"] not in trainees:
+            trainees.append(r["participant"])
+    severity_colour = {"mild": "tab:blue", "severe": "tab:red"}
+    mark_colour = {"found": "tab:green", "again": "0.5", "false": "k"}
+    for number, who in enumerate(trainees, 1):
+        mine = [r for r in point_rows if r["participant"] == who]
+        cases = []
+        for r in mine:
+            if (r["study"], r["case"]) not in cases:
+                cases.append((r["study"], r["case"]))
+        cols = min(3, len(cases))
+        nrows = (len(cases) + cols - 1) // cols
+        fig, axes = plt.subplots(nrows, cols, figsize=(4.6 * cols, 4.0 * nrows + 0.4), squeeze=False)
+        for ax, (study, case) in zip(axes.flat, cases):
+            for outline in teeth.get(study, {}).values():
+                ax.add_patch(Polygon(outline, closed=True, facecolor="0.93", edgecolor="0.6", lw=0.6))
+            here = [r for r in mine if r["study"] == study and r["case"] == case]
+            lesions = [r for r in here if r["what"] == "lesion"]
+            marks = [r for r in here if r["what"] == "mark"]
+            for r in lesions:
+                colour = severity_colour.get(r["grade"], "tab:purple")
+                found = r["result"] == "found"
+                ax.add_patch(Circle((num(r["x_mm"]), num(r["y_mm"])), max(0.6, (num(r["size_mm"]) or 1.2) / 2),
+                                    facecolor=colour if found else "none", edgecolor=colour, lw=1.5,
+                                    alpha=0.6 if found else 1.0))
+            for r in marks:
+                ax.plot([num(r["x_mm"])], [num(r["y_mm"])], ls="none",
+                        marker="+" if r["grade"] == "mild" else "x", ms=8, mew=2,
+                        color=mark_colour.get(r["result"], "k"))
+            found = sum(1 for r in lesions if r["result"] == "found")
+            false = sum(1 for r in marks if r["result"] == "false")
+            title = "case %s: " % case
+            title += ("%d of %d found" % (found, len(lesions))) if lesions else "lesions not drawn"
+            ax.set_title(title + (", %d false" % false if false else ""), fontsize=8)
+            ax.set_aspect("equal")
+            ax.autoscale_view()
+            ax.tick_params(labelsize=6)
+        for ax in list(axes.flat)[len(cases):]:
+            ax.axis("off")
+        fig.suptitle("%s: each case from above (circles: lesions, blue mild, red severe, filled when found; "
+                     "marks: + mild, x severe, green found, black false)" % who.replace("$", r"\$"), fontsize=8)
+        save(fig, "report-cases-%d.png" % number)
+
 # Learning curves: each participant's scores per trial in time order, one panel per kind and score.
+# Up to kFewLines participants share a panel (each line its own colour and marker); with more, each
+# score gets small multiples: one small panel per participant, the others faint grey behind.
+kFewLines = 6
 curve = rows("learning_curve")
 if curve:
     panels = []
     for r in curve:
         if (r["kind"], r["score"]) not in panels:
             panels.append((r["kind"], r["score"]))
-    cols = min(2, len(panels))
-    nrows = (len(panels) + cols - 1) // cols
-    fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 3.0 * nrows), squeeze=False)
-    for ax, (kind, score) in zip(axes.flat, panels):
-        people = sorted({r["participant"] for r in curve if r["kind"] == kind and r["score"] == score})
-        for who in people:
-            pts = [(int(r["index"]), float(r["value"])) for r in curve
-                   if r["kind"] == kind and r["score"] == score and r["participant"] == who]
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", ms=3, lw=1, label=who)
-        ax.set_title("%s: %s" % (kind, score.replace("_", " ")), fontsize=9)
-        ax.set_xlabel("trial, in time order")
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    for ax in list(axes.flat)[len(panels):]:
-        ax.axis("off")
-    save(fig, "report-learning.png")
+    people = sorted({r["participant"] for r in curve})
+
+    def series(kind, score, who):
+        pts = [(int(r["index"]), float(r["value"])) for r in curve
+               if r["kind"] == kind and r["score"] == score and r["participant"] == who]
+        return [p[0] for p in pts], [p[1] for p in pts]
+
+    if len(people) <= kFewLines:
+        markers = "osD^vP"
+        cols = min(2, len(panels))
+        nrows = (len(panels) + cols - 1) // cols
+        fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 3.0 * nrows), squeeze=False)
+        for ax, (kind, score) in zip(axes.flat, panels):
+            for n, who in enumerate(people):
+                xs, ys = series(kind, score, who)
+                if xs:
+                    ax.plot(xs, ys, marker=markers[n % len(markers)], ms=4, lw=1.2,
+                            ls=("-", "--", ":")[n % 3], label=who)
+            ax.set_title("%s: %s" % (kind, score.replace("_", " ")), fontsize=9)
+            ax.set_xlabel("trial, in time order")
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        for ax in list(axes.flat)[len(panels):]:
+            ax.axis("off")
+        save(fig, "report-learning.png")
+    else:
+        for number, (kind, score) in enumerate(panels, 1):
+            cols = min(6, len(people))
+            nrows = (len(people) + cols - 1) // cols
+            fig, axes = plt.subplots(nrows, cols, figsize=(2.2 * cols, 1.9 * nrows), squeeze=False,
+                                     sharex=True, sharey=True)
+            everyone = [series(kind, score, who) for who in people]
+            for ax, who, (xs, ys) in zip(axes.flat, people, everyone):
+                for oxs, oys in everyone:
+                    ax.plot(oxs, oys, color="0.85", lw=0.8)
+                ax.plot(xs, ys, color="tab:blue", marker="o", ms=3, lw=1.4)
+                ax.set_title(who, fontsize=8)
+                ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+                ax.tick_params(labelsize=7)
+                ax.grid(alpha=0.3)
+            for ax in list(axes.flat)[len(people):]:
+                ax.axis("off")
+            fig.suptitle("Learning curve, %s: %s (each trainee in blue, the others grey; trials in time order)"
+                         % (kind, score.replace("_", " ")), fontsize=9)
+            save(fig, "report-learning-%d.png" % number)
 
 open(os.path.join(d, "figures_report.txt"), "w").write("".join(m + "\n" for m in made))

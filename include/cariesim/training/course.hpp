@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <unordered_set>
@@ -51,6 +52,17 @@ std::string hash_passphrase(std::string_view passphrase, int iterations = kPassp
 /// when `encoded` is malformed (parse_passphrase_hash).
 bool verify_passphrase(std::string_view passphrase, std::string_view encoded);
 
+/// What a trainee must achieve over their diagnosis cases to pass (the course file's optional
+/// `criteria`, docs/instructors.md); `cariesim report --course FILE` grades each trainee against them
+/// (docs/reports.md, "The gradebook"). An absent criterion is not graded.
+struct PassCriteria {
+  std::optional<double> detection_rate;     ///< fraction of the lesions found over all cases, at least
+  std::optional<double> severity_accuracy;  ///< fraction of the found lesions graded right, at least
+  std::optional<int> false_marks;           ///< false marks in any one case, at most
+  std::optional<double> time_per_lesion;    ///< s, mean time to find a lesion, at most
+  std::optional<double> soft_tissue_time;   ///< s pressing on gum or tongue in any one case, at most
+};
+
 /// A parsed course file.
 struct Course {
   std::filesystem::path file;  ///< the course file (messages name it)
@@ -63,6 +75,7 @@ struct Course {
   std::string station;            ///< this station's name (letters, digits, '.', '_', '-')
   std::vector<std::string> participants;  ///< participant IDs allowed; empty: any valid ID
   std::string instructor_hash;            ///< the instructor passphrase's hash (stored format above)
+  std::optional<PassCriteria> criteria;   ///< what the report grades (`criteria`); none: not graded
 
   /// The study database this station writes: records/STATION.db.
   [[nodiscard]] std::filesystem::path database() const;

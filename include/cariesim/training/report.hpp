@@ -11,7 +11,31 @@
 #include <string>
 #include <vector>
 
+#include "cariesim/training/course.hpp"
+
 namespace cariesim::training {
+
+/// A lesion of a recorded diagnosis case (trials.answers "lesions", docs/training.md).
+struct RecordedLesion {
+  std::string site;      ///< the study's site name
+  std::string severity;  ///< "mild" or "severe"
+};
+
+/// A mark of a recorded diagnosis case (trials.answers "marks").
+struct RecordedMark {
+  double t = 0.0;             ///< s, servo time from the trial's start
+  std::string grade;          ///< "mild" or "severe"
+  bool contact = false;       ///< the tool touched something
+  double tip[3] = {0, 0, 0};  ///< mm, world: the graphic tool's tip
+  int lesion = 0;             ///< the lesion it went to, from 1; 0: a false mark
+  bool first = false;         ///< the lesion's first mark (the one that found it)
+};
+
+/// What a finished diagnosis trial's answers hold: the case's lesions and the trainee's marks.
+struct RecordedCase {
+  std::vector<RecordedLesion> lesions;
+  std::vector<RecordedMark> marks;
+};
 
 /// One score of a trial (a row of the `scores` table).
 struct TrialScore {
@@ -31,11 +55,14 @@ struct StudyTrial {
   std::string started_at;               ///< ISO 8601 UTC
   std::optional<std::string> ended_at;  ///< empty for an unfinished trial
   std::vector<TrialScore> scores;
+  /// A finished diagnosis trial's lesions and marks (trials.answers), when it records them.
+  std::optional<RecordedCase> diagnosis_case;
 };
 
 /// Reads every trial of a study database, opened read-only. Throws cariesim::Error naming the file
 /// when it cannot be opened or read, is not a study database (application id, tables) or has another
-/// schema version than kStudySchemaVersion.
+/// schema version than kStudySchemaVersion, or a finished diagnosis trial's answers are not what a
+/// station writes (named by file, row, column and field).
 std::vector<StudyTrial> read_study_database(const std::filesystem::path& file);
 
 /// A trial row found more than once (in two copies of a database, or the same database twice).
@@ -92,6 +119,11 @@ struct Column {
                        ///< JSON keep full precision)
 };
 
+/// The report's parts, in page order (docs/reports.md).
+inline constexpr const char* kSectionGradebook = "Gradebook";
+inline constexpr const char* kSectionResearch = "Research tables";
+inline constexpr const char* kSectionInputs = "Inputs";
+
 /// One table of the report, written as NAME.csv, under "NAME" in report.json and in report.html.
 /// In HTML a column KEY_mean followed by KEY_sd is shown as one "mean ± SD" cell.
 struct ReportTable {
@@ -101,6 +133,16 @@ struct ReportTable {
   std::vector<Column> columns;
   std::vector<std::vector<Cell>> rows;
   bool in_html = true;  ///< false: CSV and JSON only (a long-form table), the page names the file
+  /// The part of the page it is in: kSectionGradebook, kSectionResearch or kSectionInputs ("": CSV
+  /// and JSON only, not on the page). A table without rows is left off the page (its CSV and JSON
+  /// entry stay, empty).
+  std::string section = kSectionResearch;
+};
+
+/// A score's one-line definition, shown on the page.
+struct Definition {
+  std::string term;
+  std::string meaning;
 };
 
 /// The whole report before it is written.
@@ -108,10 +150,21 @@ struct Report {
   MergedStudies merged;
   std::vector<ReportTable> tables;
   std::vector<std::string> warnings;  ///< duplicates, conflicting copies, unfinished trials, ...
+  std::vector<Definition> definitions;  ///< every score the page shows, in words
+  bool graded = false;                  ///< pass/fail criteria were given
 };
 
-/// Builds every table from merged studies.
-Report build_report(MergedStudies merged);
+/// Builds every table from merged studies; `criteria` (a course's, may be null) grades each trainee's
+/// diagnosis cases pass or fail (the table `gradebook`, one row per trainee and criterion).
+Report build_report(MergedStudies merged, const PassCriteria* criteria = nullptr);
+
+/// Adds the data of the case pictures to `report`: the tables case_outlines (each tooth of each
+/// study's scene seen from above) and case_points (each recorded case's lesions, placed as the model
+/// places them, and marks), both CSV and JSON only, for the figures. Each case is rebuilt from its
+/// study and recorded seed (make_trial); a study is one of `study_files` (by its name) or a built-in.
+/// A case whose study is unknown or whose rebuilt lesions differ from the recorded ones keeps its
+/// marks without lesions, and a warning says so. Returns the cases drawn.
+std::size_t add_case_views(Report& report, const std::vector<std::string>& study_files);
 
 /// Draws the report's figures from the CSV files in `dir` into PNG files there and returns their
 /// paths (an empty list when it cannot draw; the report is written without figures then).
