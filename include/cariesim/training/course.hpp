@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <unordered_set>
@@ -63,6 +64,9 @@ struct Course {
   std::string station;            ///< this station's name (letters, digits, '.', '_', '-')
   std::vector<std::string> participants;  ///< participant IDs allowed; empty: any valid ID
   std::string instructor_hash;            ///< the instructor passphrase's hash (stored format above)
+  /// `exam_seed`: every participant gets the same cases, those of this study seed (RunOptions::
+  /// same_cases); unset: each participant gets cases of their own
+  std::optional<uint64_t> exam_seed;
 
   /// The study database this station writes: records/STATION.db.
   [[nodiscard]] std::filesystem::path database() const;
