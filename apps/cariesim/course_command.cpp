@@ -64,6 +64,12 @@ int check_command(const std::string& file) {
     std::printf(
         "  note: the study has a fixed seed: whoever reads its file can rebuild every case; leave "
         "`seed:` out for an assessed class\n");
+  // An exam seed: everyone the same cases, rebuilt by whoever reads the course file.
+  if (c.exam_seed)
+    std::printf(
+        "  exam seed: every participant gets the same cases; whoever reads this file can rebuild them\n");
+  else
+    std::printf("  cases: each participant their own\n");
   if (c.participants.empty())
     std::printf("  participants: any ID\n");
   else

@@ -27,6 +27,7 @@ struct StudyRunArgs {
   std::string out;
   std::string station;
   std::optional<uint64_t> seed;  // unset: the study's, else drawn
+  bool same_cases = false;       // every participant the trials of the seed itself (an exam)
   int trials = 0;                // 0: the study's
   double duration = 0.0;         // s per trial when the device does not end
   bool quiet = false;
@@ -65,8 +66,9 @@ void print_check(const training::Study& s) {
                   s.diagnosis.generate ? ", then drawn cases" : "", s.diagnosis.time_limit,
                   s.diagnosis.detection_margin);
       for (const auto& site : s.diagnosis.sites)
-        std::printf("  site %-16s %-12s FDI %d %s\n", site.name.c_str(), site.object.c_str(), site.fdi,
-                    site.site.c_str());
+        std::printf("  site %-20s %-8s FDI %d %-16s region %g x %g mm\n", site.name.c_str(),
+                    site.object.c_str(), site.fdi, site.site.c_str(), 2.0 * site.region[0],
+                    2.0 * site.region[1]);
       break;
   }
 }
@@ -80,6 +82,7 @@ int run_study(const StudyRunArgs& args) {
   options.station = args.station;
   options.database = args.out;
   options.seed = args.seed;
+  options.same_cases = args.same_cases;
   if (args.trials > 0) options.trials = args.trials;
   options.overrides = scene_overrides(args.sets);
   training::StudyRun run(study, options);
@@ -121,6 +124,9 @@ void register_study(CLI::App& app, Registry& registry) {
   add_set_option(run, args->sets);
   run->add_option("--station", args->station, "station name in the database (default: the host name)");
   add_seed_option(run, args->seed, "study seed, 0 to 2^63-1 (default: the study's, else drawn)");
+  run->add_flag("--same-cases", args->same_cases,
+                "every participant the same cases, those of the seed (as a course's exam_seed); default: "
+                "each participant their own");
   run->add_option("--trials", args->trials, "number of trials (default: the study's)")
       ->check(CLI::Range(1, 1000));
   run->add_option("--duration", args->duration, "seconds per trial when the device does not end (default 1)")

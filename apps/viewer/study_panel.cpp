@@ -74,7 +74,9 @@ void ViewerApp::start_study(const std::string& participant) {
   run_options.station = course_->station;
   run_options.database = course_->database();
   run_options.trials = options_.trials;
-  run_options.seed = options_.seed;
+  // A course's exam seed gives every trainee the same cases (--seed still sets the seed).
+  training::apply_course_seed(*course_, run_options);
+  if (options_.seed) run_options.seed = options_.seed;
   run_options.overrides = options_.overrides;
   // Nothing on disk names the running trial's case (its seed waits for its end; its recording is
   // held in memory, start_session); a new records folder is owner-only.

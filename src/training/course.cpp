@@ -138,7 +138,8 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
   try {
     const Fields f(
         r, root, "",
-        {"format", "course", "study", "records", "station", "participants", "instructor", "criteria"});
+        {"format", "course", "study", "records", "station", "participants", "instructor", "criteria",
+         "exam_seed"});
     if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, "format", 1, 1);
     course.name = required_text(r, f, "course");
     const std::filesystem::path base = origin.parent_path();
@@ -195,6 +196,14 @@ Course parse_course(std::string_view yaml, const std::filesystem::path& origin) 
       if (const std::size_t i = first_repeated(course.participants); i < items.size())
         r.fail(items[i], io::indexed("participants", i),
                fmt::format("participant '{}' is listed twice", course.participants[i]));
+    }
+
+    // An exam's seed (optional): decimal digits in [0, kMaxSeed], as a study file's `seed`.
+    if (const auto n = f.get("exam_seed"); n.IsDefined()) {
+      course.exam_seed = parse_seed(r.text(n, "exam_seed"));
+      if (!course.exam_seed)
+        r.fail(n, "exam_seed",
+               fmt::format("expected a seed: an integer in [0, {}] in decimal digits", kMaxSeed));
     }
 
     // The instructor passphrase's hash, decoded now so a bad one is found before the class.

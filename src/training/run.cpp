@@ -373,7 +373,9 @@ std::string answers_json(const TrialSetup& setup, const TrialAnswers& a,
       w.key("lesions").begin_array();
       for (const CaseLesion& l : setup.truth.lesions) {
         w.begin_object().field("site", l.site).field("severity", grade_name(l.severity));
-        w.field("size", l.size).field("width", l.width).field("depth", l.depth).end_object();
+        w.field("size", l.size).field("width", l.width).field("depth", l.depth);
+        w.field("shape", lesion_kind_name(l.shape));
+        w.key("offset").begin_array().value(l.offset[0]).value(l.offset[1]).end_array().end_object();
       }
       w.end_array();
       w.key("marks").begin_array();
@@ -471,10 +473,21 @@ StudyRun::StudyRun(Study study, RunOptions options) : study_(std::move(study)), 
 
 StudyRun::~StudyRun() = default;
 
+void apply_course_seed(const Course& course, RunOptions& options) {
+  if (!course.exam_seed) return;
+  options.seed = course.exam_seed;
+  options.same_cases = true;
+}
+
+uint64_t StudyRun::seed_of_trial(int index) const {
+  // Each participant's own stream of trials, unless every participant gets the same (an exam).
+  return trial_seed(options_.same_cases ? seed_ : participant_seed(seed_, options_.participant), index);
+}
+
 const TrialSetup& StudyRun::begin_trial() {
   if (finished()) throw Error(fmt::format("study {}: all {} trials have ended", study_.name, trial_count_));
   if (in_trial_) throw Error(fmt::format("study {}: trial {} has begun already", study_.name, current_ + 1));
-  setup_ = make_trial(study_, current_, trial_seed(seed_, current_));
+  setup_ = make_trial(study_, current_, seed_of_trial(current_));
   if (!options_.overrides.empty())
     setup_.scene_yaml = override_scene_text(setup_.scene_yaml, setup_.scene_origin, options_.overrides);
   answers_ = TrialAnswers{};

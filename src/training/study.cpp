@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -148,10 +149,26 @@ void read_boundary(const Reader& r, const YAML::Node& node, const std::string& p
     r.fail(f.has("spacing") ? f.get("spacing") : node, f.sub("spacing"), "the cubes would overlap");
 }
 
+// The shapes a lesion may take, as the study file names them.
+constexpr std::string_view kShapeNames[] = {"disk", "stripe", "ellipsoid", "inverted-cone"};
+constexpr LesionShape::Kind kShapeKinds[] = {LesionShape::Kind::Disk, LesionShape::Kind::Stripe,
+                                             LesionShape::Kind::Ellipsoid, LesionShape::Kind::InvertedCone};
+constexpr double kMaxRegion = 20.0;  // mm, largest half-axis of a site's region
+// The kinds of site (site_kind_names()).
+constexpr std::string_view kSiteKinds[] = {"occlusal",    "occlusal-fossa", "occlusal-fissure", "buccal-pit",
+                                           "lingual-pit", "interproximal",  "mesial",           "distal"};
+
+LesionShape::Kind read_shape(const Reader& r, const YAML::Node& node, const std::string& path) {
+  return kShapeKinds[r.choice(node, path, "lesion shape",
+                              {kShapeNames[0], kShapeNames[1], kShapeNames[2], kShapeNames[3]})];
+}
+
 // One entry of `diagnosis.sites`, checked against the scene's objects.
 LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string& path,
                      const SceneDesc& scene) {
-  const Fields f(r, node, path, {"name", "object", "site", "at", "normal", "tangent", "snap_range", "shape"});
+  const Fields f(
+      r, node, path,
+      {"name", "object", "site", "at", "normal", "tangent", "region", "snap_range", "shape", "shapes"});
   LesionSite s;
   s.where = SourceLoc{r.file(), node.Mark().line + 1, node.Mark().column + 1};
   s.name = r.text(f.require("name"), f.sub("name"));
@@ -167,11 +184,12 @@ LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string&
   const ObjectDesc& o = scene.objects[static_cast<std::size_t>(object)];
   if (o.kind != ObjectKind::Rigid) r.fail(f.get("object"), f.sub("object"), "lesions need a rigid host");
   s.fdi = o.fdi;
-  s.site = r.choice(f.require("site"), f.sub("site"), "site", {"occlusal", "interproximal"}) == 0
-               ? "occlusal"
-               : "interproximal";
+  const auto& k = kSiteKinds;
+  s.site = std::string(k[r.choice(f.require("site"), f.sub("site"), "site",
+                                  {k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]})]);
   s.at = r.vec3(f.require("at"), f.sub("at"));
   if (s.at.cwiseAbs().maxCoeff() > 10.0 * kMaxLength) r.fail(f.get("at"), f.sub("at"), "point too far");
+  s.world_at = o.pose.transform(s.at);
   s.normal = r.direction(f.require("normal"), f.sub("normal"));
   if (const auto n = f.get("tangent"); n.IsDefined()) {
     s.tangent = r.direction(n, f.sub("tangent"));
@@ -180,24 +198,42 @@ LesionSite read_site(const Reader& r, const YAML::Node& node, const std::string&
   } else {
     s.tangent = std::abs(s.normal.x()) > 0.9 ? Vec3::UnitY() : Vec3::UnitX();
   }
+  // The region: two half-axes (mm), each in [0, kMaxRegion].
+  if (const auto n = f.get("region"); n.IsDefined()) {
+    r.require_sequence(n, f.sub("region"));
+    if (n.size() != 2) r.fail(n, f.sub("region"), "expected [along, across] (mm, the ellipse's half-axes)");
+    for (std::size_t i = 0; i < 2; ++i)
+      s.region[i] = r.number_in(n[i], indexed(f.sub("region"), i), 0.0, kMaxRegion, "mm");
+  }
   f.positive("snap_range", s.snap_range, 50.0, "mm");
-  if (const auto n = f.get("shape"); n.IsDefined()) {
-    const std::size_t k =
-        r.choice(n, f.sub("shape"), "lesion shape", {"disk", "stripe", "ellipsoid", "inverted-cone"});
-    constexpr LesionShape::Kind kinds[] = {LesionShape::Kind::Disk, LesionShape::Kind::Stripe,
-                                           LesionShape::Kind::Ellipsoid, LesionShape::Kind::InvertedCone};
-    s.shape = kinds[k];
+  // One shape (`shape`) or the shapes drawn among (`shapes`), not both.
+  if (f.has("shape") && f.has("shapes"))
+    r.fail(f.get("shapes"), f.sub("shapes"), "give `shape` or `shapes`, not both");
+  if (const auto n = f.get("shape"); n.IsDefined()) s.shapes = {read_shape(r, n, f.sub("shape"))};
+  if (const auto n = f.get("shapes"); n.IsDefined()) {
+    r.require_sequence(n, f.sub("shapes"));
+    if (n.size() == 0 || n.size() > 4) r.fail(n, f.sub("shapes"), "expected one to four shapes");
+    s.shapes.clear();
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const LesionShape::Kind k = read_shape(r, n[i], indexed(f.sub("shapes"), i));
+      if (std::find(s.shapes.begin(), s.shapes.end(), k) != s.shapes.end())
+        r.fail(n[i], indexed(f.sub("shapes"), i),
+               fmt::format("shape '{}' listed twice", lesion_kind_name(k)));
+      s.shapes.push_back(k);
+    }
   }
   return s;
 }
 
-// One lesion of a case: {site, severity, size, width, depth}.
+// One lesion of a case: {site, severity, size, width, depth, shape, offset}.
 CaseLesion read_case_lesion(const Reader& r, const YAML::Node& node, const std::string& path,
                             const std::vector<LesionSite>& sites) {
-  const Fields f(r, node, path, {"site", "severity", "size", "width", "depth"});
+  const Fields f(r, node, path, {"site", "severity", "size", "width", "depth", "shape", "offset"});
   CaseLesion c;
   c.site = r.text(f.require("site"), f.sub("site"));
-  if (std::none_of(sites.begin(), sites.end(), [&](const LesionSite& s) { return s.name == c.site; })) {
+  const auto site =
+      std::find_if(sites.begin(), sites.end(), [&](const LesionSite& s) { return s.name == c.site; });
+  if (site == sites.end()) {
     std::string names;
     for (const auto& s : sites) names += (names.empty() ? "" : ", ") + s.name;
     r.fail(f.get("site"), f.sub("site"), fmt::format("unknown site '{}' (sites: {})", c.site, names));
@@ -208,6 +244,19 @@ CaseLesion read_case_lesion(const Reader& r, const YAML::Node& node, const std::
   f.positive("size", c.size, 50.0, "mm");
   f.positive("width", c.width, 50.0, "mm");
   f.positive("depth", c.depth, 20.0, "mm");
+  c.shape = site->shapes.front();
+  if (const auto n = f.get("shape"); n.IsDefined()) c.shape = read_shape(r, n, f.sub("shape"));
+  // The offset: within the site's region.
+  if (const auto n = f.get("offset"); n.IsDefined()) {
+    r.require_sequence(n, f.sub("offset"));
+    if (n.size() != 2) r.fail(n, f.sub("offset"), "expected [along, across] (mm in the site's region)");
+    for (std::size_t i = 0; i < 2; ++i)
+      c.offset[i] = r.number_in(n[i], indexed(f.sub("offset"), i), -kMaxRegion, kMaxRegion, "mm");
+    if (!in_site_region(*site, c.offset))
+      r.fail(n, f.sub("offset"),
+             fmt::format("[{}, {}] lies outside the region of site '{}' (half-axes [{}, {}] mm)", c.offset[0],
+                         c.offset[1], site->name, site->region[0], site->region[1]));
+  }
   return c;
 }
 
@@ -352,6 +401,33 @@ bool parse_grade(std::string_view text, Grade& out) {
   return false;
 }
 
+std::vector<std::string> site_kind_names() { return {std::begin(kSiteKinds), std::end(kSiteKinds)}; }
+
+std::array<Vec3, 2> site_axes(const LesionSite& site) {
+  // The tangent with its normal part removed (the parser refuses one parallel to the normal).
+  const Vec3 along = (site.tangent - site.tangent.dot(site.normal) * site.normal).normalized();
+  return {along, site.normal.cross(along)};
+}
+
+Vec3 site_point(const LesionSite& site, const std::array<double, 2>& offset) {
+  const std::array<Vec3, 2> axes = site_axes(site);
+  return site.at + offset[0] * axes[0] + offset[1] * axes[1];
+}
+
+bool in_site_region(const LesionSite& site, const std::array<double, 2>& offset) {
+  // Inside the ellipse; a zero half-axis takes only a zero offset along it.
+  double sum = 0.0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    if (site.region[i] == 0.0) {
+      if (offset[i] != 0.0) return false;
+      continue;
+    }
+    const double q = offset[i] / site.region[i];
+    sum += q * q;
+  }
+  return std::isfinite(sum) && sum <= 1.0;
+}
+
 Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   const Reader r(origin.string());
   const YAML::Node root = io::parse_document(yaml, origin.string());
@@ -458,6 +534,18 @@ uint64_t trial_seed(uint64_t study_seed, int index) {
   // it fits SQLite's signed INTEGER.
   std::mt19937_64 stream(study_seed);
   stream.discard(static_cast<unsigned long long>(index));
+  return stream() >> 1;
+}
+
+uint64_t participant_seed(uint64_t study_seed, std::string_view participant) {
+  // std::seed_seq's and std::mt19937_64's seeding are fixed by the standard, so this is the same on
+  // every machine (docs/training.md, "seeds").
+  std::vector<uint32_t> words{static_cast<uint32_t>(study_seed & 0xffffffffu),
+                              static_cast<uint32_t>(study_seed >> 32),
+                              static_cast<uint32_t>(participant.size())};
+  for (const char c : participant) words.push_back(static_cast<unsigned char>(c));
+  std::seed_seq seq(words.begin(), words.end());
+  std::mt19937_64 stream(seq);
   return stream() >> 1;
 }
 

@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "cariesim/common/error.hpp"
@@ -104,7 +105,27 @@ void make_boundary(const Study& study, Draws& draws, TrialSetup& t) {
   t.scene_origin = fmt::format("{}#trial{}", study.origin, t.index + 1);
 }
 
-// A drawn case (docs/training.md): the count, the sites, then per lesion severity, size, width, depth.
+// Two sites too close for one case: their regions, grown by half the largest lesion and the detection
+// margin each, meet (so no mark can be within the margin of both lesions).
+bool too_close(const LesionSite& a, const LesionSite& b, const CaseGenerator& g, double margin) {
+  const double reach = std::max(a.region[0], a.region[1]) + std::max(b.region[0], b.region[1]) +
+                       std::max(g.max_size, g.max_width) + 2.0 * margin;
+  return (a.world_at - b.world_at).norm() < reach;
+}
+
+// Where a drawn lesion lies in its site's region: a point drawn uniformly in the unit disk (pairs
+// drawn in the square until one falls inside; after 64 misses, the centre), scaled by the half-axes.
+std::array<double, 2> draw_offset(const LesionSite& site, Draws& draws) {
+  for (int tries = 0; tries < 64; ++tries) {
+    const double u = draws.uniform(-1.0, 1.0);
+    const double v = draws.uniform(-1.0, 1.0);
+    if (u * u + v * v <= 1.0) return {u * site.region[0], v * site.region[1]};
+  }
+  return {0.0, 0.0};
+}
+
+// A drawn case (docs/training.md): the count, the sites (apart from each other), then per lesion
+// severity, size, width, depth, shape and place in its site's region.
 std::vector<CaseLesion> draw_case(const DiagnosisDesc& d, const CaseGenerator& g, Draws& draws) {
   const int max_count = std::min<int>(g.max_count, static_cast<int>(d.sites.size()));
   const int min_count = std::min(g.min_count, max_count);
@@ -113,15 +134,25 @@ std::vector<CaseLesion> draw_case(const DiagnosisDesc& d, const CaseGenerator& g
   std::vector<std::size_t> order(d.sites.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   draws.shuffle(order);
+  std::vector<const LesionSite*> taken;
+  for (const std::size_t i : order) {
+    if (static_cast<int>(taken.size()) == count) break;
+    const LesionSite& site = d.sites[i];
+    if (std::none_of(taken.begin(), taken.end(),
+                     [&](const LesionSite* t) { return too_close(*t, site, g, d.detection_margin); }))
+      taken.push_back(&site);
+  }
   std::vector<CaseLesion> lesions;
-  for (int k = 0; k < count; ++k) {
+  for (const LesionSite* site : taken) {
     CaseLesion c;
-    c.site = d.sites[order[static_cast<std::size_t>(k)]].name;
+    c.site = site->name;
     c.severity = draws.uniform(0.0, 1.0) < g.mild_fraction ? Grade::Mild : Grade::Severe;
     c.size = draws.uniform(g.min_size, g.max_size);
     c.width = draws.uniform(g.min_width, g.max_width);
     const double* depth = c.severity == Grade::Mild ? g.mild_depth : g.severe_depth;
     c.depth = draws.uniform(depth[0], depth[1]);
+    c.shape = site->shapes[draws.index(site->shapes.size())];
+    c.offset = draw_offset(*site, draws);
     lesions.push_back(c);
   }
   return lesions;
@@ -151,8 +182,9 @@ void make_diagnosis(const Study& study, Draws& draws, TrialSetup& t) {
     l["name"] = fmt::format("lesion{}", k + 1);
     l["object"] = site->object;
     YAML::Node placement;
-    for (const auto& [key, v] :
-         {std::pair{"at", site->at}, {"normal", site->normal}, {"tangent", site->tangent}}) {
+    for (const auto& [key, v] : {std::pair{"at", site_point(*site, c.offset)},
+                                 {"normal", site->normal},
+                                 {"tangent", site->tangent}}) {
       YAML::Node seq(YAML::NodeType::Sequence);
       for (int i = 0; i < 3; ++i) seq.push_back(v[i]);
       seq.SetStyle(YAML::EmitterStyle::Flow);
@@ -162,9 +194,9 @@ void make_diagnosis(const Study& study, Draws& draws, TrialSetup& t) {
     placement.SetStyle(YAML::EmitterStyle::Flow);
     l["placement"] = placement;
     YAML::Node shape;
-    shape["type"] = std::string(lesion_kind_name(site->shape));
+    shape["type"] = std::string(lesion_kind_name(c.shape));
     shape["size"] = c.size;
-    if (site->shape == LesionShape::Kind::Stripe || site->shape == LesionShape::Kind::Ellipsoid)
+    if (c.shape == LesionShape::Kind::Stripe || c.shape == LesionShape::Kind::Ellipsoid)
       shape["width"] = c.width;
     shape["depth"] = c.depth;
     shape.SetStyle(YAML::EmitterStyle::Flow);

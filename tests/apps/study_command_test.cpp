@@ -6,11 +6,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "apps/apps_support.hpp"
+#include "cariesim/training/study.hpp"
 #include "support/command.hpp"
 #include "support/files.hpp"
 
@@ -124,6 +126,61 @@ TEST_F(StudyCommand, SeedsOutOfRangeAreRefusedEverywhere) {
   }
   EXPECT_FALSE(fs::exists(dir_ / "s.db")) << "nothing ran";
   EXPECT_FALSE(fs::exists(dir_ / "records")) << "no station started";
+}
+
+// The trial seeds a run printed ("study: trial N/M (seed S): ..."), in order.
+std::vector<std::string> printed_seeds(const std::string& err) {
+  std::vector<std::string> seeds;
+  for (std::size_t at = err.find("(seed "); at != std::string::npos; at = err.find("(seed ", at + 1))
+    seeds.push_back(err.substr(at + 6, err.find(')', at) - at - 6));
+  return seeds;
+}
+
+// Two participants of one study seed get different drawn cases (each trial's seed depends on the
+// participant; coarse trees keep the builds short); with --same-cases (a course's exam_seed) both get
+// the seed's own trials. Before, the
+// trials depended on the seed alone, so every trainee of a class with a fixed seed had the same cases.
+TEST_F(StudyCommand, EachParticipantGetsCasesOfTheirOwnUnlessTheCasesAreShared) {
+  const fs::path examples = fs::path(CARIESIM_SOURCE_DIR) / "studies/examples";
+  std::map<std::string, std::vector<std::string>> seeds;
+  for (const std::string participant : {"P01", "P02"}) {
+    for (const std::string same : {"", " --same-cases"}) {
+      const CommandResult r =
+          run_cariesim("study run '" + (examples / "diagnosis-drawn.yaml").string() + "' --participant " +
+                       participant + " --answers '" + (examples / "diagnosis-drawn-answers.yaml").string() +
+                       "' --out '" + (dir_ / "class.db").string() +
+                       "' --seed 5 --trials 1 --set 'objects[0].tree.tolerance=0.2'" + same);
+      ASSERT_EQ(r.status, 0) << r.err;
+      seeds[participant + same] = printed_seeds(r.err);
+      ASSERT_EQ(seeds[participant + same].size(), 1u) << r.err;
+    }
+  }
+  EXPECT_NE(seeds["P01"], seeds["P02"]);
+  EXPECT_EQ(seeds["P01 --same-cases"], seeds["P02 --same-cases"]);
+  EXPECT_EQ(seeds["P01 --same-cases"][0], std::to_string(cariesim::training::trial_seed(5, 0)));
+  EXPECT_EQ(seeds["P01"][0], std::to_string(cariesim::training::trial_seed(
+                                 cariesim::training::participant_seed(5, "P01"), 0)));
+}
+
+// A course's exam_seed: `course check` says every participant gets the same cases; a bad one is
+// refused at its line and column, naming the field.
+TEST_F(StudyCommand, CourseCheckSaysWhetherTheCasesAreShared) {
+  const std::string head = "course: C\nstudy: diagnosis\nrecords: records\nstation: s1\n";
+  const std::string hash =
+      "instructor: pbkdf2-sha256$100000$000102030405060708090a0b0c0d0e0f$"
+      "c8d122ecdb9477cd48a6b1750c5985c0b8b05158d040d20517ccdb49865de436\n";
+  std::ofstream(dir_ / "class.yaml") << head << hash;
+  std::ofstream(dir_ / "exam.yaml") << head << "exam_seed: 20261126\n" << hash;
+  std::ofstream(dir_ / "bad.yaml") << head << "exam_seed: -3\n" << hash;
+  CommandResult r = run_cariesim("course check '" + (dir_ / "class.yaml").string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("cases: each participant their own"), std::string::npos) << r.out;
+  r = run_cariesim("course check '" + (dir_ / "exam.yaml").string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("exam seed: every participant gets the same cases"), std::string::npos) << r.out;
+  r = run_cariesim("course check '" + (dir_ / "bad.yaml").string() + "'");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("bad.yaml:5:12: exam_seed: expected a seed"), std::string::npos) << r.err;
 }
 
 }  // namespace

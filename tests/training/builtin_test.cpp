@@ -32,7 +32,7 @@ TrialResult run_one(const std::string& name, const fs::path& db,
   options.seed = 11;
   StudyRun run(load_study(name), options);
   const Study& study = run.study();
-  const TrialSetup setup = make_trial(study, 0, trial_seed(run.seed(), 0));
+  const TrialSetup setup = make_trial(study, 0, run.seed_of_trial(0));
   HeadlessOptions headless;
   headless.duration = 0.1;
   const auto results = run_headless(run, parse_answers(answers(setup), "answers.yaml"), headless);
@@ -64,11 +64,11 @@ TEST(BuiltinHeadless, BoundaryShapesAllRightScoresThePoint) {
   EXPECT_EQ(score(r, kScoreShapeCorrect, "square"), 1.0);
 }
 
-TEST(BuiltinHeadless, DiagnosisMarksOnThePapersThreeLesionsDetectAndGradeThem) {
+TEST(BuiltinHeadless, DiagnosisPaperMarksOnThePapersThreeLesionsDetectAndGradeThem) {
   const fs::path dir = test::scratch();
-  // The first case is the paper's: #1 and #2 severe on 46, #3 mild on 36. Marks at the lesions'
+  // diagnosis-paper's first case is the paper's: #1 and #2 severe on 46, #3 mild on 36. Marks at the lesions'
   // centres as the model placed them (snapped onto the teeth), #3 graded wrong, plus one on 47.
-  const TrialResult r = run_one("diagnosis", dir / "class.db", [](const TrialSetup& t) {
+  const TrialResult r = run_one("diagnosis-paper", dir / "class.db", [](const TrialSetup& t) {
     const Model model = build_model(t.scene());
     EXPECT_EQ(model.lesions.size(), 3u);
     std::string yaml = "trials:\n  - marks:\n";

@@ -39,11 +39,11 @@ double score(const TrialResult& r, std::string_view name, std::string_view level
 
 // An answers file naming the shapes of every trial: the truth, except cube `wrong_cube` of trial
 // `wrong_trial`, which is given its neighbour's shape.
-ScriptedAnswers boundary_answers(const Study& study, uint64_t seed, int trials, int wrong_trial,
+ScriptedAnswers boundary_answers(const Study& study, const StudyRun& run, int trials, int wrong_trial,
                                  int wrong_cube) {
   std::string yaml = "trials:\n";
   for (int i = 0; i < trials; ++i) {
-    std::vector<std::string> shapes = make_trial(study, i, trial_seed(seed, i)).truth.shapes;
+    std::vector<std::string> shapes = make_trial(study, i, run.seed_of_trial(i)).truth.shapes;
     if (i == wrong_trial)
       shapes[static_cast<std::size_t>(wrong_cube)] = shapes[static_cast<std::size_t>(wrong_cube + 1) % 3];
     yaml += fmt::format("  - shapes: [{}, {}, {}]\n", shapes[0], shapes[1], shapes[2]);
@@ -61,14 +61,14 @@ TEST(Headless, BoundaryAllRightScoresTenOfTenAndOneWrongShapeLosesThatPoint) {
     SCOPED_TRACE(wrong);
     const fs::path db = dir / fmt::format("class{}.db", wrong);
     StudyRun run(study, options(db, 10));
-    const auto results = run_headless(run, boundary_answers(study, run.seed(), 10, wrong, 1), headless);
+    const auto results = run_headless(run, boundary_answers(study, run, 10, wrong, 1), headless);
     ASSERT_EQ(results.size(), 10u);
     double points = 0.0;
     for (const TrialResult& r : results) points += score(r, kScoreBoundaryPoint);
     EXPECT_EQ(points, wrong < 0 ? 10.0 : 9.0);
     if (wrong >= 0) {
       EXPECT_EQ(score(results[3], kScoreBoundaryPoint), 0.0);
-      const std::string hidden = make_trial(study, 3, trial_seed(run.seed(), 3)).truth.shapes[1];
+      const std::string hidden = make_trial(study, 3, run.seed_of_trial(3)).truth.shapes[1];
       EXPECT_EQ(score(results[3], kScoreShapeCorrect, hidden), 0.0);
     }
     // Every trial has its recording of the session (0.1 s at 1 kHz) beside the database. The span is

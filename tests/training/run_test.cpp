@@ -49,7 +49,7 @@ TEST(StudyRun, WritesTheSchemaAndOneRowPerTrialWithItsScores) {
     for (int c = 0; c < 3; ++c) run.name_shape(c, named[static_cast<std::size_t>(c)]);
     const TrialResult r = run.end_trial("");
     EXPECT_EQ(r.index, i);
-    EXPECT_EQ(r.seed, trial_seed(42, i));
+    EXPECT_EQ(r.seed, trial_seed(participant_seed(42, "P01"), i));
   }
   EXPECT_TRUE(run.finished());
 
@@ -64,7 +64,8 @@ TEST(StudyRun, WritesTheSchemaAndOneRowPerTrialWithItsScores) {
                   " recording FROM trials ORDER BY id");
   ASSERT_EQ(trials.size(), 2u);
   EXPECT_EQ(trials[0], (std::vector<std::string>{"station-1", "P01", "boundary-small", "boundary-shapes", "1",
-                                                 std::to_string(trial_seed(42, 0)), "1", "NULL"}));
+                                                 std::to_string(trial_seed(participant_seed(42, "P01"), 0)),
+                                                 "1", "NULL"}));
   EXPECT_EQ(trials[1][4], "2");
   const auto points = test::query(
       db, "SELECT trial_id, value, unit FROM scores WHERE name = 'boundary_point' ORDER BY trial_id");
@@ -98,22 +99,40 @@ TEST(StudyRun, ATrialsRowIsCommittedWhenItBeginsWithEndedAtNull) {
   EXPECT_EQ(run.recording_path().filename(), "boundary-small-P01-2-2.db");
 }
 
-TEST(StudyRun, AppendsToADatabaseAndTheSameSeedGivesTheSameTrials) {
-  const fs::path db = test::scratch() / "class.db";
-  for (const std::string participant : {"P01", "P02"}) {
-    StudyRun run(boundary_small(), options(db, participant));
-    while (!run.finished()) {
-      const TrialSetup& t = run.begin_trial();
-      for (int c = 0; c < 3; ++c) run.name_shape(c, t.truth.shapes[static_cast<std::size_t>(c)]);
-      run.end_trial("");
+// One study seed (the example's `seed: 42`): a participant's trials come from their own seed, so two
+// participants get different trials and the same participant again gets the same; with same_cases
+// (a course's exam_seed) everyone gets the trials of the study seed itself.
+TEST(StudyRun, AppendsToADatabaseAndEachParticipantGetsTrialsOfTheirOwn) {
+  const fs::path dir = test::scratch();
+  for (const bool same : {false, true}) {
+    const fs::path db = dir / (same ? "exam.db" : "class.db");
+    for (const std::string participant : {"P01", "P02", "P01"}) {
+      RunOptions o = options(db, participant);
+      o.same_cases = same;
+      StudyRun run(boundary_small(), o);
+      while (!run.finished()) {
+        const TrialSetup& t = run.begin_trial();
+        EXPECT_EQ(t.seed, run.seed_of_trial(t.index));
+        for (int c = 0; c < 3; ++c) run.name_shape(c, t.truth.shapes[static_cast<std::size_t>(c)]);
+        run.end_trial("");
+      }
+    }
+    const auto rows = test::query(db, "SELECT participant, trial, seed, answers FROM trials ORDER BY id");
+    ASSERT_EQ(rows.size(), 6u);
+    EXPECT_EQ(rows[2][0], "P02");
+    EXPECT_EQ(rows[0][2], rows[4][2]);  // P01 twice: the same trials
+    EXPECT_EQ(rows[1][3], rows[5][3]);
+    EXPECT_NE(rows[0][2], rows[1][2]);
+    if (same) {
+      EXPECT_EQ(rows[0][2], std::to_string(trial_seed(42, 0)));
+      EXPECT_EQ(rows[2][2], rows[0][2]);
+      EXPECT_EQ(rows[3][3], rows[1][3]);
+    } else {
+      EXPECT_EQ(rows[0][2], std::to_string(trial_seed(participant_seed(42, "P01"), 0)));
+      EXPECT_EQ(rows[2][2], std::to_string(trial_seed(participant_seed(42, "P02"), 0)));
+      EXPECT_NE(rows[2][2], rows[0][2]);
     }
   }
-  const auto rows = test::query(db, "SELECT participant, trial, seed, answers FROM trials ORDER BY id");
-  ASSERT_EQ(rows.size(), 4u);
-  EXPECT_EQ(rows[2][0], "P02");
-  EXPECT_EQ(rows[0][2], rows[2][2]);
-  EXPECT_EQ(rows[1][3], rows[3][3]);
-  EXPECT_NE(rows[0][2], rows[1][2]);
 }
 
 TEST(StudyRun, RefusesWhatIsNotAStudyDatabase) {
@@ -197,13 +216,13 @@ TEST(StudyRun, InTraineeModeTheSeedIsWrittenOnlyWhenTheTrialEnds) {
   for (int c = 0; c < 3; ++c) run.name_shape(c, t.truth.shapes[static_cast<std::size_t>(c)]);
   (void)run.end_trial("");
   EXPECT_EQ(test::query(db, "SELECT seed FROM trials WHERE trial = 1")[0][0],
-            std::to_string(trial_seed(42, 0)));
+            std::to_string(trial_seed(participant_seed(42, "P01"), 0)));
   run.begin_trial();
   EXPECT_EQ(test::query(db, "SELECT seed FROM trials WHERE trial = 2")[0][0],
             std::to_string(kSeedNotWritten));
   run.abandon_trial("lesion1 misses tooth46");
   const auto row = test::query(db, "SELECT seed, answers, ended_at FROM trials WHERE trial = 2");
-  EXPECT_EQ(row[0], (std::vector<std::string>{std::to_string(trial_seed(42, 1)),
+  EXPECT_EQ(row[0], (std::vector<std::string>{std::to_string(trial_seed(participant_seed(42, "P01"), 1)),
                                               R"({"error":"lesion1 misses tooth46"})", "NULL"}));
 }
 

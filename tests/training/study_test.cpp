@@ -29,7 +29,8 @@ std::string parse_error(const std::string& yaml, const std::string& origin = "te
 
 TEST(BuiltinStudies, AllParseAndMakeTheirFirstTrial) {
   const std::vector<std::string> names = builtin_study_names();
-  EXPECT_EQ(names, (std::vector<std::string>{"tuning", "tuning-insertion", "boundary-shapes", "diagnosis"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"tuning", "tuning-insertion", "boundary-shapes", "diagnosis",
+                                             "diagnosis-paper"}));
   for (const std::string& name : names) {
     SCOPED_TRACE(name);
     const Study s = load_study(name);
@@ -42,7 +43,8 @@ TEST(BuiltinStudies, AllParseAndMakeTheirFirstTrial) {
 
 TEST(BuiltinStudies, ReproduceThePapersSettings) {
   // Tables 1-2: two levels, the target's two sliders; §4.2.2: ten trials of three 100 mm cubes with
-  // 60 mm shapes, mu_s 0.5, mu_d 0.3, 1 N/mm; §5.3: the first case is the paper's three lesions.
+  // 60 mm shapes, mu_s 0.5, mu_d 0.3, 1 N/mm; §5.3: diagnosis-paper's first case is the paper's three
+  // lesions (diagnosis draws every case).
   const Study tuning = load_study("tuning");
   EXPECT_EQ(tuning.tuning.target, TuningTarget::Roughness);
   ASSERT_EQ(tuning.tuning.parameters.size(), 2u);
@@ -56,7 +58,8 @@ TEST(BuiltinStudies, ReproduceThePapersSettings) {
   EXPECT_EQ(boundary.boundary.mu_s, 0.5);
   EXPECT_EQ(boundary.boundary.mu_d, 0.3);
   EXPECT_EQ(boundary.boundary.stiffness, 1.0);
-  const Study diagnosis = load_study("diagnosis");
+  EXPECT_TRUE(load_study("diagnosis").diagnosis.cases.empty());
+  const Study diagnosis = load_study("diagnosis-paper");
   const TrialSetup first = make_trial(diagnosis, 0, 1);
   ASSERT_EQ(first.truth.lesions.size(), 3u);
   EXPECT_EQ(first.truth.lesions[2].severity, Grade::Mild);

@@ -269,7 +269,9 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
   std::vector<std::vector<std::string>> truth;
   for (int i = 0; i < 2; ++i)
     truth.push_back(
-        cariesim::training::make_trial(study, i, cariesim::training::trial_seed(kSeed, i)).truth.shapes);
+        cariesim::training::make_trial(
+            study, i, cariesim::training::trial_seed(cariesim::training::participant_seed(kSeed, "P07"), i))
+            .truth.shapes);
   ASSERT_EQ(truth[1].size(), 3u);
   std::vector<std::string> wrong = truth[1];
   std::swap(wrong[0], wrong[1]);
@@ -288,8 +290,11 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   EXPECT_THAT(r.err, HasSubstr("trial 2 of 2 ended"));
   // The terminal says nothing of the cases (it printed the study seed and "(7 collision parts)").
-  expect_terminal_tells_nothing(r, {std::to_string(cariesim::training::trial_seed(kSeed, 0)),
-                                    std::to_string(cariesim::training::trial_seed(kSeed, 1))});
+  expect_terminal_tells_nothing(
+      r,
+      {std::to_string(cariesim::training::trial_seed(cariesim::training::participant_seed(kSeed, "P07"), 0)),
+       std::to_string(
+           cariesim::training::trial_seed(cariesim::training::participant_seed(kSeed, "P07"), 1))});
   const fs::path json = json_of("trainee-study");
   EXPECT_EQ(json_query(json, "(d['study']['finished'], d['study']['ended'], d['study']['participant'])"),
             "(True, 2, 'P07')");
@@ -307,9 +312,10 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
                                                    "IS NOT NULL, recording FROM trials ORDER BY id");
   ASSERT_EQ(trials.size(), 2u);
   for (int i = 0; i < 2; ++i) {
-    EXPECT_THAT(trials[i],
-                ::testing::StartsWith("P07|xvfb-1|boundary-shapes|boundary-shapes|" +
-                                      std::to_string(cariesim::training::trial_seed(kSeed, i)) + "|1|"));
+    EXPECT_THAT(trials[i], ::testing::StartsWith("P07|xvfb-1|boundary-shapes|boundary-shapes|" +
+                                                 std::to_string(cariesim::training::trial_seed(
+                                                     cariesim::training::participant_seed(kSeed, "P07"), i)) +
+                                                 "|1|"));
     const std::string recording = trials[i].substr(trials[i].rfind('|') + 1);
     EXPECT_TRUE(fs::exists(dir / "records" / recording)) << recording;
   }
@@ -324,14 +330,14 @@ TEST_F(TraineeXvfb, BoundaryShapesStudyRunsEndToEndThroughTheViewer) {
             (std::vector<std::string>{"3.0", "1.0"}));
 }
 
-// The diagnosis study's first case (the paper's three lesions on real-arch) in the viewer: the M key
+// The diagnosis-paper study's first case (the paper's three lesions on real-arch) in the viewer: the M key
 // marks at the tip (here at the tool's home, in the air: a false mark, graded mild, the panel's
 // default) and the answers file ends the case at 1.5 s; the trial's row has that mark and the
 // diagnosis scores it earns (three lesions, none detected, three missed, one false mark).
 TEST_F(TraineeXvfb, DiagnosisMarkKeyAndEndCaseReachTheStudyDatabase) {
   if (!cariesim::test::on_path("sqlite3")) GTEST_SKIP() << "the sqlite3 shell is not installed";
   const fs::path dir = scratch("diagnosis");
-  const fs::path course = write_course(dir, "diagnosis");
+  const fs::path course = write_course(dir, "diagnosis-paper");
   std::ofstream(dir / "answers.yaml") << "trials:\n  - end: 1.5\n";
   std::ofstream(dir / "keys.txt") << "0.5 key M\n";
   const RunResult r =
@@ -385,10 +391,12 @@ TEST_F(TraineeXvfb, TuningSlidersReachTheServoLoopAndTheStudyDatabase) {
   EXPECT_EQ(sql_rows(dir / "records" / recording[0],
                      "SELECT json_array_length(parameters, '$.lesions') FROM session"),
             (std::vector<std::string>{"1"}));
-  expect_terminal_tells_nothing(r, {std::to_string(cariesim::training::trial_seed(7, 0))});
+  expect_terminal_tells_nothing(
+      r, {std::to_string(cariesim::training::trial_seed(cariesim::training::participant_seed(7, "P03"), 0))});
   // In the order the trial asked for the levels (drawn from its seed), each level's values.
   const cariesim::training::TrialSetup setup = cariesim::training::make_trial(
-      cariesim::training::load_study("tuning"), 0, cariesim::training::trial_seed(7, 0));
+      cariesim::training::load_study("tuning"), 0,
+      cariesim::training::trial_seed(cariesim::training::participant_seed(7, "P03"), 0));
   std::vector<std::string> expected;
   for (const cariesim::training::Grade level : setup.levels) {
     const bool mild = level == cariesim::training::Grade::Mild;
@@ -425,7 +433,8 @@ TEST_F(TraineeXvfb, ARunningOrKilledTrialLeavesNothingOfItsCaseOnDisk) {
   std::ofstream(dir / "study.yaml") << study;
   const fs::path course = write_course(dir, "study.yaml");
   constexpr uint64_t kSeed = 987654321;
-  const std::string seed_text = std::to_string(cariesim::training::trial_seed(kSeed, 0));
+  const std::string seed_text =
+      std::to_string(cariesim::training::trial_seed(cariesim::training::participant_seed(kSeed, "P05"), 0));
 
   // The window in the background under xvfb-run, on a thread of this test; `done` is set when
   // xvfb-run has returned. The window's pid is found by its command line (the course file is this

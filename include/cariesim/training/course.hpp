@@ -76,6 +76,9 @@ struct Course {
   std::vector<std::string> participants;  ///< participant IDs allowed; empty: any valid ID
   std::string instructor_hash;            ///< the instructor passphrase's hash (stored format above)
   std::optional<PassCriteria> criteria;   ///< what the report grades (`criteria`); none: not graded
+  /// `exam_seed`: every participant gets the same cases, those of this study seed (RunOptions::
+  /// same_cases); unset: each participant gets cases of their own
+  std::optional<uint64_t> exam_seed;
 
   /// The study database this station writes: records/STATION.db.
   [[nodiscard]] std::filesystem::path database() const;

@@ -32,6 +32,7 @@
 #include "cariesim/common/math.hpp"
 #include "cariesim/render/model.hpp"
 #include "cariesim/scene/scene_desc.hpp"
+#include "cariesim/training/course.hpp"
 #include "cariesim/training/study.hpp"
 
 namespace cariesim::training {
@@ -43,6 +44,10 @@ struct RunOptions {
   std::filesystem::path database;  ///< the study database, created when missing
   /// The study seed; unset: the study file's seed, else one drawn from std::random_device.
   std::optional<uint64_t> seed;
+  /// Every participant gets the same trials, those of the study seed itself (a course's `exam_seed`,
+  /// docs/instructors.md). Off: the trials of participant_seed(seed, participant), so two
+  /// participants never share a case, even with one fixed seed.
+  bool same_cases = false;
   std::optional<int> trials;  ///< overrides the study's trial count
   /// Folder of the trials' recordings; relative paths are taken from the database's folder. Empty:
   /// "DB-recordings" beside the database (DB its file name without extension), so two databases in
@@ -63,6 +68,10 @@ struct RunOptions {
   /// "Overrides"); the trial's scene text holds them, so its recording and scores see that scene.
   std::vector<SceneOverride> overrides;
 };
+
+/// What a course says about a run's cases (docs/instructors.md): with an `exam_seed`, that seed and
+/// RunOptions::same_cases (every trainee the same cases); without, nothing (each trainee their own).
+void apply_course_seed(const Course& course, RunOptions& options);
 
 /// trials.seed of a trial that runs in trainee mode (RunOptions::hide_case_while_running) and has
 /// not ended yet, or was cut short by a crash; seeds themselves are in [0, 2^63).
@@ -140,6 +149,9 @@ class StudyRun {
   [[nodiscard]] const RunOptions& options() const { return options_; }
   /// The study seed in use (recorded through every trial's seed).
   [[nodiscard]] uint64_t seed() const { return seed_; }
+  /// The seed of trial `index` (0-based) in this run (trials.seed): trial_seed(participant_seed(seed(),
+  /// participant), index), or trial_seed(seed(), index) with RunOptions::same_cases.
+  [[nodiscard]] uint64_t seed_of_trial(int index) const;
   /// Trials in this run.
   [[nodiscard]] int trial_count() const { return trial_count_; }
   /// 0-based index of the current trial (the one begun, or the next to begin); trial_count() when done.

@@ -11,6 +11,7 @@
 /// Every random choice of a trial comes from that trial's seed (docs/training.md gives the draw order),
 /// so make_trial(study, i, seed) gives the same trial on any machine.
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -73,18 +74,32 @@ struct BoundaryDesc {
   std::vector<std::string> shapes{"square", "triangle", "circle"};  ///< one per cube, order drawn
 };
 
-/// Where a diagnosis lesion may be placed (`diagnosis.sites` in the study file).
+/// The kinds of diagnosis site (`diagnosis.sites[].site`), in the order the study file names them:
+/// "occlusal", "occlusal-fossa", "occlusal-fissure", "buccal-pit", "lingual-pit", "interproximal",
+/// "mesial", "distal" ("occlusal" and "interproximal" when the file does not say which).
+std::vector<std::string> site_kind_names();
+
+/// Where a diagnosis lesion may be placed (`diagnosis.sites` in the study file): a region of a tooth's
+/// surface, an ellipse in the tangent plane at `at` (half-axes `region`, mm, along the tangent and
+/// across it). A drawn lesion's centre lies anywhere in it (drawn from the trial's seed), then is
+/// snapped onto the tooth along the normal, as a scene's lesion is (docs/training.md).
 struct LesionSite {
-  std::string name;              ///< unique within the study, e.g. "46-occlusal"
+  std::string name;              ///< unique within the study, e.g. "46-occlusal-fossa"
   SourceLoc where;               ///< the entry in the study file
   std::string object;            ///< the tooth object of the scene, e.g. "tooth46"
   int fdi = 0;                   ///< that object's FDI number (from the scene)
-  std::string site;              ///< "occlusal" or "interproximal"
-  Vec3 at = Vec3::Zero();        ///< mm, placement point in the object frame (snapped onto the surface)
+  std::string site;              ///< its kind: one of site_kind_names()
+  Vec3 at = Vec3::Zero();        ///< mm, the region's centre in the object frame (snapped onto the surface)
   Vec3 normal = Vec3::UnitZ();   ///< outward normal there (object frame)
   Vec3 tangent = Vec3::UnitX();  ///< in-plane direction of the shape (object frame)
-  double snap_range = 3.0;       ///< mm
-  LesionShape::Kind shape = LesionShape::Kind::Disk;  ///< disk, stripe, ellipsoid, inverted-cone
+  /// mm, the region's half-axes along the tangent (projected into the tangent plane) and across it;
+  /// {0, 0}: the point `at` only
+  std::array<double, 2> region{0.0, 0.0};
+  double snap_range = 3.0;  ///< mm
+  /// The shapes a lesion here may take (drawn among them; a listed case may name any); the first is
+  /// the default. Disk, stripe, ellipsoid, inverted-cone.
+  std::vector<LesionShape::Kind> shapes{LesionShape::Kind::Disk};
+  Vec3 world_at = Vec3::Zero();  ///< mm, `at` in the world (the object's pose), for keeping lesions apart
 };
 
 /// One hidden lesion of a diagnosis case.
@@ -94,7 +109,20 @@ struct CaseLesion {
   double size = 2.0;   ///< mm (LesionShape::size)
   double width = 1.0;  ///< mm (LesionShape::width: stripes and ellipsoids)
   double depth = 1.2;  ///< mm below the surface
+  LesionShape::Kind shape = LesionShape::Kind::Disk;  ///< the lesion's shape
+  /// mm, where its centre lies in the site's region: along the site's tangent and across it (within
+  /// the region's ellipse), before it is snapped onto the tooth
+  std::array<double, 2> offset{0.0, 0.0};
 };
+
+/// The site's tangent in its tangent plane (unit), and the direction across it (normal × that): the
+/// axes of its region and of a lesion's offset.
+std::array<Vec3, 2> site_axes(const LesionSite& site);
+/// The point of `site`'s region at `offset` (mm along site_axes), in the object frame: where a lesion
+/// with that offset is placed before it is snapped onto the tooth.
+Vec3 site_point(const LesionSite& site, const std::array<double, 2>& offset);
+/// True when `offset` lies in `site`'s region (its ellipse; a point region takes only {0, 0}).
+bool in_site_region(const LesionSite& site, const std::array<double, 2>& offset);
 
 /// How cases are drawn when the study file gives no case list (`diagnosis.generate`).
 struct CaseGenerator {
@@ -168,6 +196,12 @@ std::optional<uint64_t> parse_seed(std::string_view text);
 /// The seed of trial `index` of a run whose study seed is `study_seed`: the (index+1)-th output of a
 /// std::mt19937_64 seeded with study_seed, shifted right by one (63 bits: it fits SQLite's INTEGER).
 uint64_t trial_seed(uint64_t study_seed, int index);
+
+/// The study seed of one participant: the first output of a std::mt19937_64 seeded through
+/// std::seed_seq with the study seed's low and high 32 bits, the participant ID's length and its
+/// bytes, shifted right by one (docs/training.md, "seeds"). A run's trial seeds are trial_seed of it,
+/// so two participants of one study seed get different cases, each rebuilt from its trials.seed.
+uint64_t participant_seed(uint64_t study_seed, std::string_view participant);
 
 /// What is hidden in a trial: the scorer's truth, never shown to a trainee.
 struct TrialTruth {
