@@ -65,7 +65,7 @@ class Station:
         self.db.execute("INSERT INTO schema_version (version, application) VALUES (?, ?)", (version, application))
         self.name = name
 
-    def trial(self, who, study, number, seed, start, seconds, scores, finished=True, answers="{}"):
+    def trial(self, who, study, number, seed, start, seconds, scores, finished=True, answers="{}", kind=None):
         started = "2026-11-%02dT%02d:%02d:%02d.000Z" % start
         day, hour, minute, second = start
         total = hour * 3600 + minute * 60 + second + int(seconds)
@@ -73,7 +73,7 @@ class Station:
         cur = self.db.execute(
             "INSERT INTO trials (station, participant, study, kind, trial, seed, started_at, ended_at,"
             " recording, answers, scores) VALUES (?, ?, ?, ?, ?, ?, ?, ?, NULL, ?, '{}')",
-            (self.name, who, study, study, number, seed, started, ended if finished else None, answers))
+            (self.name, who, study, kind or study, number, seed, started, ended if finished else None, answers))
         for name, level, value, unit in scores:
             self.db.execute("INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)",
                             (cur.lastrowid, name, level, value, unit))
@@ -83,12 +83,12 @@ class Station:
         self.db.close()
 
 
-# The built-in diagnosis study's first case (studies/diagnosis.yaml, the paper's #1-#3), and where the
+# The built-in diagnosis-paper study's first case (studies/diagnosis-paper.yaml, the paper's #1-#3), and where
 # model places each lesion (world mm, as `cariesim report` rebuilds it from the scene): the marks of
 # the example land on them.
-PAPER_CASE = [{"site": "46-occlusal", "severity": "severe", "size": 2.2, "width": 1.0, "depth": 2.5},
+PAPER_CASE = [{"site": "46-occlusal-fossa", "severity": "severe", "size": 2.2, "width": 1.0, "depth": 2.5},
               {"site": "46-mesial", "severity": "severe", "size": 2.0, "width": 1.4, "depth": 1.3},
-              {"site": "36-occlusal", "severity": "mild", "size": 3.0, "width": 0.8, "depth": 1.2}]
+              {"site": "36-occlusal-fossa", "severity": "mild", "size": 3.0, "width": 0.8, "depth": 1.2}]
 CENTRES = [[-20.209, -0.328, 7.94], [-19.26, -4.375, 2.44], [19.654, 0.431, 8.07]]
 # A false mark's place: the occlusal surface of 45 or 47, away from every lesion.
 ELSEWHERE = [[-16.743, -7.567, 7.928], [-24.163, 8.25, 7.774]]
@@ -96,7 +96,7 @@ ELSEWHERE = [[-16.743, -7.567, 7.928], [-24.163, 8.25, 7.774]]
 COURSE = """# course.yaml: the example class (docs/reports.md); `cariesim report --course` grades with its criteria.
 format: 1
 course: Example class
-study: diagnosis
+study: diagnosis-paper
 records: records
 station: station-a
 instructor: pbkdf2-sha256$600000$ba9f44571da1cd87db4514d1c8529d2c$507309be11afaf095e2d9b42fbb6b0639f9e4c686035c1eb08d477ec3a119722
@@ -181,12 +181,12 @@ def main():
                        ("enamel_peak_force", "", round(rng.uniform(2.0, 5.0), 2), "N"),
                        ("blocked_insertions", "", float(rng.randrange(0, 3)), "count")]
             answers = case_answers(rng, found, graded, times, false_marks)
-            station.trial(who, "diagnosis", 1, rng.randrange(1 << 31), (day, 11, 5 * t, 0), case_time, scores,
-                          answers=answers)
+            station.trial(who, "diagnosis-paper", 1, rng.randrange(1 << 31), (day, 11, 5 * t, 0), case_time, scores,
+                          answers=answers, kind="diagnosis")
 
     # A case abandoned at station-b (no end time): listed, not counted.
-    stations["station-b"].trial("D5", "diagnosis", 5, 7, (24, 11, 30, 0), 0,
-                                [("lesions", "", 3.0, "count")], finished=False)
+    stations["station-b"].trial("D5", "diagnosis-paper", 5, 7, (24, 11, 30, 0), 0,
+                                [("lesions", "", 3.0, "count")], finished=False, kind="diagnosis")
     for s in stations.values():
         s.close()
     with open(os.path.join(out, "course.yaml"), "w") as f:

@@ -569,9 +569,9 @@ std::vector<TrialScore> case_scores(int found, int false_marks, double accuracy,
 // severe (right), lesion 3 found at 40 s graded severe (wrong), a second mark on lesion 1 (neither
 // counts), a false mark at 50 s; lesion 2 missed.
 constexpr const char* kPaperCaseAnswers =
-    R"({"lesions":[{"site":"46-occlusal","severity":"severe","size":2.2,"width":0,"depth":2.5},)"
+    R"({"lesions":[{"site":"46-occlusal-fossa","severity":"severe","size":2.2,"width":0,"depth":2.5},)"
     R"({"site":"46-mesial","severity":"severe","size":2,"width":1.4,"depth":1.3},)"
-    R"({"site":"36-occlusal","severity":"mild","size":3,"width":0.8,"depth":1.2}],)"
+    R"({"site":"36-occlusal-fossa","severity":"mild","size":3,"width":0.8,"depth":1.2}],)"
     R"("marks":[{"t":12,"grade":"severe","contact":true,"tip":[1,2,3],"lesion":1,"distance":0,"first":true},)"
     R"({"t":20,"grade":"mild","contact":true,"tip":[1,2,3],"lesion":1,"distance":0,"first":false},)"
     R"({"t":40,"grade":"severe","contact":true,"tip":[4,5,6],"lesion":3,"distance":0.2,"first":true},)"
@@ -590,7 +590,7 @@ TEST_F(ReportTest, GradebookListsEachLesionFoundOrMissed) {
   write_report(build_report(merge_study_databases({dir_ / "a.db"})), out, {});
   const auto lesions = read_csv(out / "lesions.csv");
   ASSERT_EQ(lesions.size(), 4U);  // three lesions and one false mark
-  EXPECT_EQ(lesions[0].at("site"), "46-occlusal");
+  EXPECT_EQ(lesions[0].at("site"), "46-occlusal-fossa");
   EXPECT_EQ(lesions[0].at("result"), "found");
   EXPECT_EQ(lesions[0].at("marked_as"), "severe");
   EXPECT_EQ(lesions[0].at("grade"), "right");
@@ -616,18 +616,18 @@ TEST_F(ReportTest, GradebookListsEachLesionFoundOrMissed) {
   EXPECT_TRUE(has(html, "<td>missed</td>"));
 }
 
-// The case pictures' data are drawn from the model: the built-in study's first case rebuilt from the
+// The case pictures' data are drawn from the model: the built-in diagnosis-paper study's first case rebuilt from the
 // recorded seed places the paper's three lesions on the real-arch teeth (46 occlusal and mesial, 36
 // occlusal, snapped as the model builder snaps them), every tooth has an outline seen from above; a
 // recorded case the rebuild does not give keeps its marks, without lesions, and a warning says so.
 TEST_F(ReportTest, CasePicturesPlaceTheLesionsWhereTheModelDoes) {
   {
     StudyDbWriter a(dir_ / "a.db", "chair-1");
-    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
+    a.trial("P1", "diagnosis-paper", "diagnosis", 1, "2026-11-20T11:00:00Z", "2026-11-20T11:02:00Z",
             case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 42, kPaperCaseAnswers);
     std::string other = kPaperCaseAnswers;
-    other.replace(other.find("46-occlusal"), 11, "47-occlusal");
-    a.trial("P1", "diagnosis", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
+    other.replace(other.find("46-occlusal-fossa"), 17, "47-occlusal-fossa");
+    a.trial("P1", "diagnosis-paper", "diagnosis", 1, "2026-11-20T12:00:00Z", "2026-11-20T12:02:00Z",
             case_scores(2, 1, 0.5, {{"severe", 12}, {"mild", 40}}, 0.4), 43, other);
   }
   Report report = build_report(merge_study_databases({dir_ / "a.db"}));
