@@ -147,6 +147,37 @@ TEST_F(DebriefXvfb, AfterEachCaseTheTraineeSeesTheLesionTheMarksAndTheReplay) {
   EXPECT_EQ(sql(db, "SELECT count(*) FROM trial_sources WHERE scene_hash IS NOT NULL"), "2\n");
 }
 
+// `debrief: at-end`: both cases run first, then each case's debrief (its scene built again), the
+// window ending on the last one.
+TEST_F(DebriefXvfb, AtTheEndEachCaseIsDebriefedAfterTheLast) {
+  const fs::path dir = scratch("at-end");
+  const fs::path study = write_study(dir, "at-end", false);
+  const fs::path course = dir / "course.yaml";
+  std::ofstream(course) << "course: Debrief at the end\nstudy: " << study.string()
+                        << "\nrecords: records\nstation: xvfb-3\ninstructor: "
+                        << cariesim::training::hash_passphrase("molar probe 46",
+                                                               cariesim::training::kPassphraseMinIterations)
+                        << "\n";
+  const fs::path png = viewer_artefacts() / "debrief-at-end.png";
+  const RunResult r = run_under_xvfb(
+      "run --course '" + course.string() + "' --participant P01 --device 'scripted:" +
+          (examples() / "probe-fossa.csv").string() + "' --answers '" +
+          (examples() / "diagnosis-answers.yaml").string() + "' --no-realtime --exit-after 60 --screenshot '" +
+          png.string() + "'",
+      "debrief-at-end");
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  // Both trials ended before the first debrief was built.
+  const std::size_t second = r.err.find("trial 2 of 2 ended");
+  const std::size_t first_debrief = r.err.find("building debrief of Trial 1 of 2");
+  ASSERT_NE(second, std::string::npos) << r.err;
+  ASSERT_NE(first_debrief, std::string::npos) << r.err;
+  EXPECT_LT(second, first_debrief);
+  EXPECT_THAT(r.err, HasSubstr("building debrief of Trial 2 of 2"));
+  const fs::path json = viewer_artefacts() / "debrief-at-end.json";
+  EXPECT_EQ(json_query(json, "d['debrief']['title']"), "Trial 2 of 2");
+  EXPECT_EQ(json_query(json, "d['debrief']['found']"), "1");
+}
+
 // Without `debrief` (an exam) no debrief is shown: the study ends as before.
 TEST_F(DebriefXvfb, WithoutDebriefTheStudyEndsWithoutOne) {
   const fs::path dir = scratch("never");
