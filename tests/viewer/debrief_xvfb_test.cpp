@@ -160,10 +160,10 @@ TEST_F(DebriefXvfb, AtTheEndEachCaseIsDebriefedAfterTheLast) {
                         << "\n";
   const fs::path png = viewer_artefacts() / "debrief-at-end.png";
   const RunResult r = run_under_xvfb(
-      "run --course '" + course.string() + "' --participant P01 --device 'scripted:" +
-          (examples() / "probe-fossa.csv").string() + "' --answers '" +
-          (examples() / "diagnosis-answers.yaml").string() + "' --no-realtime --exit-after 60 --screenshot '" +
-          png.string() + "'",
+      "run --course '" + course.string() +
+          "' --participant P01 --device 'scripted:" + (examples() / "probe-fossa.csv").string() +
+          "' --answers '" + (examples() / "diagnosis-answers.yaml").string() +
+          "' --no-realtime --exit-after 60 --screenshot '" + png.string() + "'",
       "debrief-at-end");
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   // Both trials ended before the first debrief was built.
