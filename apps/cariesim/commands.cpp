@@ -58,6 +58,7 @@ void register_study(CLI::App& app, Registry& registry);   // study_command.cpp
 void register_course(CLI::App& app, Registry& registry);  // course_command.cpp
 void register_report(CLI::App& app, Registry& registry);  // report_command.cpp
 void register_device(CLI::App& app, Registry& registry);  // device_command.cpp
+void register_review(CLI::App& app, Registry& registry);  // run_command.cpp
 
 // Every subcommand registers itself here, in the order `cariesim --help` lists them.
 void register_all(CLI::App& app, Registry& registry) {
@@ -78,6 +79,7 @@ void register_all(CLI::App& app, Registry& registry) {
   register_study(app, registry);
   register_course(app, registry);
   register_report(app, registry);
+  register_review(app, registry);
 }
 
 }  // namespace cariesim::cli

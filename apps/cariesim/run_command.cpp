@@ -83,7 +83,72 @@ int run_simulator(const RunArgs& args) {
 #endif
 }
 
+struct ReviewArgs {
+  std::string database;
+  std::string participant;
+  int trial = 0;  // 0: the participant's last ended trial
+  std::string screenshot;
+  double exit_after = 0.0;  // s of servo time
+  std::vector<int> size{1280, 800};
+  std::string view;
+  bool no_realtime = false;
+};
+
+int run_review(const ReviewArgs& args) {
+#ifdef CARIESIM_HAS_VIEWER
+  // The window on the trial rebuilt from the database, replaying its recording (docs/training.md).
+  if (!viewer::display_available()) {
+    std::fputs(("error: " + viewer::headless_message()).c_str(), stderr);
+    return kNoDisplay;
+  }
+  viewer::ViewerOptions options;
+  options.review = args.database;
+  options.review_participant = args.participant;
+  if (args.trial > 0) options.review_trial = args.trial;
+  options.device = "null";
+  options.screenshot = args.screenshot;
+  options.exit_after = args.exit_after;
+  options.width = args.size[0];
+  options.height = args.size[1];
+  options.view = args.view;
+  options.realtime = !args.no_realtime;
+  return viewer::run_viewer(options);
+#else
+  (void)args;
+  std::fputs("error: this cariesim was built without the viewer (CARIESIM_BUILD_VIEWER=OFF)\n", stderr);
+  return 3;
+#endif
+}
+
 }  // namespace
+
+void register_review(CLI::App& app, Registry& registry) {
+  auto args = std::make_shared<ReviewArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "review",
+      "Open the debrief of a past diagnosis trial of a study database: its lesions, the marks, the "
+      "scores in words and the replay (docs/training.md)");
+  sub->add_option("database", args->database, "The study database (e.g. records/chair-3.db)")->required();
+  sub->add_option("--participant", args->participant, "The participant (default: the only one in the file)");
+  sub->add_option("--trial", args->trial,
+                  "The participant's N-th trial in the file, from 1 (default: their last ended trial)")
+      ->check(CLI::Range(1, 1000000));
+  auto* exit_after = sub->add_option("--exit-after", args->exit_after,
+                                     "Exit after this many seconds of the replay's servo time (automation)")
+                         ->check(finite_range(1e-6, 1e9));
+  sub->add_option("--screenshot", args->screenshot,
+                  "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
+      ->needs(exit_after);
+  sub->add_option("--size", args->size, "Window width and height in pixels")
+      ->expected(2)
+      ->check(CLI::Range(320, 8192))
+      ->capture_default_str();
+  sub->add_option("--view", args->view,
+                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator")
+      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
+  sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
+  registry.add(sub, [args] { return run_review(*args); });
+}
 
 void register_run(CLI::App& app, Registry& registry) {
   auto args = std::make_shared<RunArgs>();

@@ -70,6 +70,7 @@ void ViewerApp::draw_panel() {
   panel_.h = size.y;
   ImGui::PushItemWidth(-150.0f);
   sections_.clear();
+  if (debrief_ && section("Debrief")) panel_debrief();
   if (locked()) {
     // A trainee: the course and its study, the camera; the instructor's passphrase field.
     panel_trainee();
@@ -490,6 +491,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   for (const std::string& name : sections_) json.value(name);
   json.end_array();
   study_json(json);
+  debrief_json(json);
   if (trainee_) {
     json.key("instructor").begin_object();
     json.field("can_unlock", lock_.can_unlock());

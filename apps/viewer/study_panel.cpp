@@ -141,6 +141,8 @@ void ViewerApp::end_trial() {
                  static_cast<long long>(result.row));
     results_.push_back(std::move(result));
     study_message_.clear();
+    // The case's debrief, when the study asks for one (debrief.cpp); the next trial waits for it.
+    if (open_case_debrief(results_.back(), session_ ? session_->model.get() : nullptr)) return;
   } catch (const Error& e) {
     // The row keeps ended_at NULL, with the reason (it may name the case's lesions); the run moves on.
     study_message_ = locked()

@@ -196,6 +196,7 @@ void ViewerApp::poll_build() {
     else
       std::fprintf(stderr, "run: %s ready (%zu collision parts)\n", done->source.c_str(),
                    model->objects.size());
+    check_debrief_scene(*model);
     start_session(std::move(model), done->source, done->trial);
   } catch (const Error& e) {
     // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
@@ -228,7 +229,8 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
   s->model = std::move(model);
   SessionOptions session_options;
   session_options.scene = source;
-  session_options.device = options_.device;
+  session_options.device = next_device_.empty() ? options_.device : next_device_;
+  next_device_.clear();
   session_options.device_profile = options_.device_profile;
   session_options.rate_hz = options_.rate_hz;
   session_options.realtime = options_.realtime;
@@ -345,7 +347,12 @@ void ViewerApp::handle_input() {
   }
 }
 
-ViewSettings ViewerApp::shown_settings() const { return locked() ? trainee_settings(settings_) : settings_; }
+ViewSettings ViewerApp::shown_settings() const {
+  ViewSettings s = locked() ? trainee_settings(settings_) : settings_;
+  // A debrief (the case has ended): its lesions and the recorded tool shown.
+  if (debrief_) s.show_lesions = s.recorded_ghost = true;
+  return s;
+}
 
 void ViewerApp::submit_passphrase(const std::string& passphrase) {
   // The check runs on the lock's worker thread (poll_lock collects it); a try within the back-off
@@ -459,7 +466,9 @@ void ViewerApp::draw_scene(int width, int height) {
 int ViewerApp::run() {
   open_window();
   // A course starts its study once the participant is known (given, or typed in the panel).
-  if (!course_)
+  if (!options_.review.empty())
+    start_review();
+  else if (!course_)
     request_build(options_.scene);
   else if (!options_.participant.empty()) {
     // Given on the command line, a study that cannot start (its database) ends the run with the reason.
@@ -480,9 +489,11 @@ int ViewerApp::run() {
     handle_input();
     read_snapshot();
     study_frame();
+    debrief_frame();
     int width = 0, height = 0;
     glfwGetFramebufferSize(window_, &width, &height);
     draw_scene(width, height);
+    draw_debrief_overlay(height);
     draw_panel();
     draw_build_progress();
     ImGui::Render();
@@ -491,7 +502,8 @@ int ViewerApp::run() {
     // Automation: once the servo clock passes exit_after, keep this frame and leave.
     // A course's study also ends the run once its last trial has ended.
     if (options_.exit_after > 0.0 &&
-        ((have_snapshot_ && snapshot_.t >= options_.exit_after) || (study_finished() && !build_))) {
+        ((have_snapshot_ && snapshot_.t >= options_.exit_after) ||
+         (study_finished() && !build_ && (!debrief_ || debrief_replay_done()) && debrief_queue_.empty()))) {
       finish(width, height);
       break;
     }

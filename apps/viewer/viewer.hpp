@@ -46,6 +46,12 @@ struct ViewerOptions {
   std::optional<uint64_t> seed;  ///< the course study's seed; unset: the study file's, else drawn
   /// Window script for automation (docs/viewer.md): timed key presses and passphrases; empty: none
   std::string script;
+  /// `cariesim review`: a study database whose trial's debrief the window shows (docs/training.md,
+  /// "Debrief"); empty: none. The participant (empty: the only one) and the trial number (unset:
+  /// their last ended trial) choose the trial.
+  std::string review;
+  std::string review_participant;
+  std::optional<int> review_trial;
 };
 
 /// True when a window system is reachable (DISPLAY or WAYLAND_DISPLAY is set).

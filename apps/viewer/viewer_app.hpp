@@ -24,6 +24,7 @@
 #include "cariesim/training/headless.hpp"
 #include "cariesim/training/run.hpp"
 #include "cariesim/training/study.hpp"
+#include "debrief.hpp"
 #include "force_history.hpp"
 #include "gl_renderer.hpp"
 #include "mouse_device.hpp"
@@ -95,6 +96,7 @@ class ViewerApp {
   /// Builds a scene that `load` describes (on the worker thread); `label` names it in messages.
   void request_build(const std::string& label, std::function<SceneDesc()> load, bool trial);
   void poll_build();
+  /// Starts a session on `model`; its device is next_device_ when set (once), else the options'.
   void start_session(std::unique_ptr<Model> model, const std::string& source, bool trial = false);
   void restart_servo();
   // Frame work (viewer.cpp).
@@ -199,6 +201,24 @@ class ViewerApp {
   void play_answers();
   void panel_study();
   void study_json(io::JsonWriter& json) const;
+
+  // The debrief (debrief.cpp): the one shown, those waiting (a study's `debrief: at-end`), and the
+  // device of the next session (the replay of a case's recording).
+  std::unique_ptr<DebriefScreen> debrief_;
+  std::vector<DebriefScreen> debrief_queue_;
+  std::string next_device_;
+  /// After a trial ends: opens (or queues) its debrief when the study asks for one; true when the
+  /// window now shows a debrief (the next trial begins when it is continued).
+  bool open_case_debrief(const training::TrialResult& result, const Model* model);
+  void show_next_debrief();
+  void start_review();
+  void check_debrief_scene(const Model& model) const;
+  [[nodiscard]] bool debrief_replay_done() const;
+  void continue_after_debrief();
+  void debrief_frame();
+  void panel_debrief();
+  void draw_debrief_overlay(int height);
+  void debrief_json(io::JsonWriter& json) const;
 
   // The window script (--script): its steps, the next one, a key it pressed in the last frame.
   std::vector<ScriptStep> script_;

@@ -543,8 +543,13 @@ void Database::check_schema(const Schema& schema) {
     seen.push_back(row.type + ":" + row.name);
   }
   // Every expected object is there.
+  const auto present = [&](const SchemaObject& o) {
+    const bool is_table = o.type == SchemaObject::Type::Table;
+    return std::find(seen.begin(), seen.end(), (is_table ? "table:" : "index:") + o.name) != seen.end();
+  };
   for (const SchemaObject& o : schema.objects) {
     const bool is_table = o.type == SchemaObject::Type::Table;
+    if (o.optional) continue;
     if (std::find(seen.begin(), seen.end(), (is_table ? "table:" : "index:") + o.name) == seen.end())
       throw Error(file_ + ": not a " + schema.what + " (the " + (is_table ? "table" : "index") + " '" +
                   o.name + "' is missing)");
@@ -552,7 +557,7 @@ void Database::check_schema(const Schema& schema) {
   // Tables: ordinary columns only (a generated column computes SQL of the file's own), the ones
   // the readers need present.
   for (const SchemaObject& o : schema.objects) {
-    if (o.type != SchemaObject::Type::Table) continue;
+    if (o.type != SchemaObject::Type::Table || !present(o)) continue;
     Statement columns(*this, "SELECT name, hidden FROM pragma_table_xinfo(?)");
     columns.bind(0, o.name);
     std::vector<std::string> names;
@@ -571,7 +576,7 @@ void Database::check_schema(const Schema& schema) {
   }
   // Indexes: on plain columns, not partial (an expression or a WHERE clause is SQL of the file's own).
   for (const SchemaObject& o : schema.objects) {
-    if (o.type != SchemaObject::Type::Index) continue;
+    if (o.type != SchemaObject::Type::Index || !present(o)) continue;
     Statement keys(*this, "SELECT count(*) FROM pragma_index_xinfo(?) WHERE key = 1 AND cid < 0");
     keys.bind(0, o.name);
     if (keys.step() != SQLITE_ROW) fail("cannot read the index " + o.name);

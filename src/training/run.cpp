@@ -147,7 +147,48 @@ std::unique_ptr<Database> open_study_database(const fs::path& file, double lock_
     Statement mode(*db, "PRAGMA journal_mode=WAL");
     if (mode.step() != SQLITE_ROW) db->fail("cannot switch to WAL mode");
   });
+  // A version 1 database gets the study sources' tables (its earlier trials stay as they were).
+  retry_while_locked(lock_wait, [&] {
+    write_transaction(*db, "adding the study sources' tables", [&] {
+      if (study_schema_version(*db) >= kStudySchemaVersion) return;
+      db->exec(std::string(kStudySourcesSql), "cannot add the study sources' tables");
+      db->exec("UPDATE schema_version SET version = " + std::to_string(kStudySchemaVersion),
+               "cannot write the schema version");
+    });
+  });
   return db;
+}
+
+// "0123456789abcdef": a 64-bit hash as 16 hex digits (as recordings store scene hashes).
+std::string hex16(uint64_t hash) { return fmt::format("{:016x}", hash); }
+
+// The row of the study's text in `studies` (added when no row holds this text).
+int64_t study_row(Database& db, const Study& study) {
+  {
+    Statement find(db, "SELECT id FROM studies WHERE hash = ? AND yaml = ?");
+    find.bind(0, hex16(study.source_hash));
+    find.bind(1, study.source);
+    const int rc = find.step();
+    if (rc == SQLITE_ROW) return find.integer(0);
+    if (rc != SQLITE_DONE) db.fail("cannot read the studies");
+  }
+  Statement insert(db, "INSERT INTO studies (name, origin, hash, yaml) VALUES (?, ?, ?, ?)");
+  insert.bind(0, study.name);
+  insert.bind(1, study.origin);
+  insert.bind(2, hex16(study.source_hash));
+  insert.bind(3, study.source);
+  if (insert.step() != SQLITE_DONE) db.fail("cannot write the study's text");
+  return sqlite3_last_insert_rowid(db.get());
+}
+
+// The `--set` overrides as trial_sources.overrides: a JSON array of {"key", "value"}.
+std::string overrides_json(const std::vector<SceneOverride>& overrides) {
+  io::JsonWriter w;
+  w.begin_array();
+  for (const SceneOverride& o : overrides)
+    w.begin_object().field("key", o.key).field("value", o.value).end_object();
+  w.end_array();
+  return w.str();
 }
 
 // What a trial's end writes: the trial row's identity (checked again when merged later) and its
@@ -159,6 +200,7 @@ struct TrialWrite {
   int64_t seed = 0;
   std::string ended_at, recording, answers_json, scores_json;
   std::vector<Score> scores;
+  std::string scene_hash;  // the recording's scene hash (16 hex digits); empty without a recording
 };
 
 // The results into the trial's row and the scores table (inside the caller's transaction).
@@ -173,6 +215,10 @@ void write_results(Database& db, const TrialWrite& w) {
   update.bind(4, w.seed);  // a trainee's trial row holds kSeedNotWritten until now
   update.bind(5, w.row);
   if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's answers and scores");
+  Statement source(db, "UPDATE trial_sources SET scene_hash = NULLIF(?, '') WHERE trial_id = ?");
+  source.bind(0, w.scene_hash);
+  source.bind(1, w.row);
+  if (source.step() != SQLITE_DONE) db.fail("cannot write the trial's scene hash");
   Statement insert(db, "INSERT INTO scores (trial_id, name, level, value, unit) VALUES (?, ?, ?, ?, ?)");
   for (const Score& s : w.scores) {
     insert.reset();
@@ -194,7 +240,7 @@ fs::path write_pending(const fs::path& database, const TrialWrite& w) {
   j.field("participant", w.participant).field("study", w.study);
   j.field("trial", static_cast<long long>(w.trial)).field("seed", static_cast<long long>(w.seed));
   j.field("started_at", w.started_at).field("ended_at", w.ended_at).field("recording", w.recording);
-  j.field("answers", w.answers_json).field("scores_json", w.scores_json);
+  j.field("answers", w.answers_json).field("scores_json", w.scores_json).field("scene_hash", w.scene_hash);
   j.key("scores").begin_array();
   for (const Score& s : w.scores) {
     j.begin_object().field("name", s.name).field("level", s.level);
@@ -243,7 +289,7 @@ TrialWrite read_pending(const fs::path& file) {
   const io::Reader r(file.string());
   const io::Fields f(r, node, "",
                      {"format", "row", "station", "participant", "study", "trial", "seed", "started_at",
-                      "ended_at", "recording", "answers", "scores_json", "scores"});
+                      "ended_at", "recording", "answers", "scores_json", "scores", "scene_hash"});
   if (r.integer_in(f.require("format"), "format", 1, 1) != 1) r.fail(node, "format", "expected 1");
   TrialWrite w;
   w.row = r.integer_in(f.require("row"), "row", 1, std::numeric_limits<int64_t>::max());
@@ -257,6 +303,12 @@ TrialWrite read_pending(const fs::path& file) {
   w.recording = r.text(f.require("recording"), "recording");
   w.answers_json = r.text(f.require("answers"), "answers");
   w.scores_json = r.text(f.require("scores_json"), "scores_json");
+  if (const YAML::Node n = f.get("scene_hash"); n.IsDefined()) {
+    w.scene_hash = r.text(n, "scene_hash");
+    if (!w.scene_hash.empty() && (w.scene_hash.size() != 16 ||
+                                  w.scene_hash.find_first_not_of("0123456789abcdef") != std::string::npos))
+      r.fail(n, "scene_hash", "expected 16 hex digits");
+  }
   const YAML::Node scores = f.require("scores");
   r.require_sequence(scores, "scores");
   for (std::size_t i = 0; i < scores.size(); ++i) {
@@ -533,6 +585,12 @@ const TrialSetup& StudyRun::begin_trial() {
         update.bind(0, relative.is_absolute() ? relative.string() : relative.lexically_normal().string());
         update.bind(1, row_);
         if (update.step() != SQLITE_DONE) db.fail("cannot write the trial's recording path");
+        // What rebuilds the trial with its seed: the study's text and the overrides.
+        Statement source(db, "INSERT INTO trial_sources (trial_id, study_id, overrides) VALUES (?, ?, ?)");
+        source.bind(0, row_);
+        source.bind(1, study_row(db, study_));
+        source.bind(2, overrides_json(options_.overrides));
+        if (source.step() != SQLITE_DONE) db.fail("cannot write the trial's study source");
       });
     });
   } catch (const io::LockedError& e) {
@@ -668,6 +726,7 @@ TrialResult StudyRun::end_trial(const fs::path& recording, const Model* model) {
   write.answers_json = result.answers_json;
   write.scores_json = result.scores_json;
   write.scores = result.scores;
+  if (rec) write.scene_hash = hex16(rec->info.scene_hash);
   Database& db = db_->db();
   try {
     retry_while_locked(options_.lock_wait, [&] {

@@ -434,10 +434,11 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
   if (!root.IsDefined() || root.IsNull()) throw Error(fmt::format("{}: empty study file", origin.string()));
   const Fields f(r, root, "",
                  {"name", "description", "format", "kind", "trials", "seed", "tuning", "boundary",
-                  "diagnosis", "scoring"});
+                  "diagnosis", "scoring", "debrief"});
   Study s;
   s.origin = origin.string();
-  s.source_hash = BuildKey().add(std::string(yaml)).value();
+  s.source = std::string(yaml);
+  s.source_hash = BuildKey().add(s.source).value();
   if (const auto n = f.get("format"); n.IsDefined()) (void)r.integer_in(n, f.sub("format"), 1, 1);
   // The name becomes part of file names (the trials' recordings): the station-name rule.
   if (const auto n = f.get("name"); n.IsDefined()) {
@@ -496,6 +497,15 @@ Study parse_study(std::string_view yaml, const std::filesystem::path& origin) {
       break;
   }
   if (const auto n = f.get("scoring"); n.IsDefined()) read_scoring(r, n, f.sub("scoring"), s.scoring);
+  // When a trainee sees the debrief (docs/training.md): only a diagnosis case has one.
+  if (const auto n = f.get("debrief"); n.IsDefined()) {
+    s.debrief = static_cast<DebriefWhen>(
+        r.choice(n, f.sub("debrief"), "debrief", {"after-each-case", "at-end", "never"}));
+    if (s.kind != StudyKind::Diagnosis && s.debrief != DebriefWhen::Never)
+      r.fail(n, f.sub("debrief"),
+             fmt::format("a {} study has no debrief (only a diagnosis study's cases do)",
+                         study_kind_name(s.kind)));
+  }
   return s;
 }
 

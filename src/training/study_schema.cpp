@@ -71,10 +71,22 @@ io::Schema study_schema(bool appending) {
       throw Error(db.file() + ": study database schema version " + std::to_string(v) +
                   " is newer than this cariesim reads (" + std::to_string(kStudySchemaVersion) +
                   "); report it with a newer cariesim");
-    if (v != kStudySchemaVersion)
+    if (v < kStudySchemaOldestVersion)
       throw Error(db.file() + ": study database schema version " + std::to_string(v) +
-                  " is not supported (this cariesim reads version " + std::to_string(kStudySchemaVersion) +
+                  " is not supported (this cariesim reads versions " +
+                  std::to_string(kStudySchemaOldestVersion) + " to " + std::to_string(kStudySchemaVersion) +
                   ")");
+    // Version 2 added the study sources: a file that says 2 must hold them.
+    if (v >= 2) {
+      for (const char* table : {"studies", "trial_sources"}) {
+        io::Statement has(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = ?");
+        has.bind(0, std::string(table));
+        if (has.step() != SQLITE_ROW) db.fail("cannot read the schema");
+        if (has.integer(0) == 0)
+          throw Error(db.file() + ": not a study database (schema version " + std::to_string(v) +
+                      " but the table '" + table + "' is missing)");
+      }
+    }
     if (appending && version.text(1) != kStudyApplication)
       throw Error(db.file() + ": not a study database cariesim appends to (schema_version.application is '" +
                   version.text(1) + "', not '" + std::string(kStudyApplication) + "')");
@@ -89,8 +101,20 @@ io::Schema study_schema(bool appending) {
         "recording", "answers", "scores"}},
       {Type::Table, "scores", "scores", {"trial_id", "name", "level", "value", "unit"}},
       {Type::Index, "scores_by_trial", "scores", {}},
+      {Type::Table, "studies", "studies", {"id", "name", "origin", "hash", "yaml"}, true},
+      {Type::Table,
+       "trial_sources",
+       "trial_sources",
+       {"trial_id", "study_id", "overrides", "scene_hash"},
+       true},
   };
   return schema;
+}
+
+int study_schema_version(io::Database& db) {
+  io::Statement version(db, "SELECT version FROM schema_version");
+  if (version.step() != SQLITE_ROW) db.fail("cannot read the schema version");
+  return static_cast<int>(version.integer(0));
 }
 
 }  // namespace cariesim::training

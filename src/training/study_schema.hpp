@@ -10,8 +10,12 @@
 
 namespace cariesim::training {
 
-/// schema_version.version of a study database; readers refuse other versions by name.
-inline constexpr int kStudySchemaVersion = 1;
+/// schema_version.version of a study database this cariesim writes; readers refuse newer versions
+/// by name. Version 1 (before the study text was stored) is still read, and appended to after adding
+/// the version 2 tables (its earlier trials then cannot be rebuilt: rebuild_trial says so).
+inline constexpr int kStudySchemaVersion = 2;
+/// The oldest version read.
+inline constexpr int kStudySchemaOldestVersion = 1;
 /// PRAGMA application_id of a study database ("CRST"), beside the recordings' "CRSM".
 inline constexpr int kStudyApplicationId = 0x43525354;
 /// schema_version.application of a study database (a recording's is "cariesim").
@@ -24,6 +28,16 @@ inline constexpr std::string_view kStudyApplication = "cariesim-study";
 ///   scores: the same scores in long form: `name` from kScore*, `level` "mild"/"severe", a shape
 ///           name, or "" when the score has no level; `unit` "", "N/mm", "s", "N", "count",
 ///           "fraction".
+///   studies: (version 2) the text of each study file a trial ran, once per text: `hash` its 16 hex
+///           digits (Study::source_hash), `origin` the file or "builtin:NAME" it was read from.
+///   trial_sources: (version 2) what rebuilds a trial besides its seed: its study's row, the
+///           `--set` overrides (JSON array of {"key", "value"}), and the scene hash of its recording
+///           (16 hex digits, NULL until the trial ends; docs/training.md, "rebuilding a trial").
+inline constexpr std::string_view kStudySourcesSql =
+    "CREATE TABLE studies (id INTEGER PRIMARY KEY, name TEXT NOT NULL, origin TEXT NOT NULL,"
+    " hash TEXT NOT NULL, yaml TEXT NOT NULL);"
+    "CREATE TABLE trial_sources (trial_id INTEGER PRIMARY KEY REFERENCES trials(id),"
+    " study_id INTEGER NOT NULL REFERENCES studies(id), overrides TEXT NOT NULL, scene_hash TEXT);";
 inline constexpr std::string_view kStudySchemaSql =
     "CREATE TABLE schema_version (version INTEGER NOT NULL, application TEXT NOT NULL);"
     "CREATE TABLE trials (id INTEGER PRIMARY KEY, station TEXT NOT NULL, participant TEXT NOT NULL,"
@@ -32,7 +46,11 @@ inline constexpr std::string_view kStudySchemaSql =
     " scores TEXT NOT NULL);"
     "CREATE TABLE scores (trial_id INTEGER NOT NULL REFERENCES trials(id), name TEXT NOT NULL,"
     " level TEXT NOT NULL, value REAL NOT NULL, unit TEXT NOT NULL);"
-    "CREATE INDEX scores_by_trial ON scores (trial_id);";
+    "CREATE INDEX scores_by_trial ON scores (trial_id);"
+    "CREATE TABLE studies (id INTEGER PRIMARY KEY, name TEXT NOT NULL, origin TEXT NOT NULL,"
+    " hash TEXT NOT NULL, yaml TEXT NOT NULL);"
+    "CREATE TABLE trial_sources (trial_id INTEGER PRIMARY KEY REFERENCES trials(id),"
+    " study_id INTEGER NOT NULL REFERENCES studies(id), overrides TEXT NOT NULL, scene_hash TEXT);";
 
 /// trials.kind
 inline constexpr std::string_view kKindTuning = "tuning";
@@ -84,5 +102,8 @@ const ScoreRule* find_score_rule(std::string_view name);
 /// and exactly the tables and index of kStudySchemaSql with their columns. A study database from
 /// another station is an input from elsewhere: nothing else in it is accepted (docs/reports.md).
 io::Schema study_schema(bool appending);
+
+/// schema_version.version of an open study database (checked by study_schema's identify).
+int study_schema_version(io::Database& db);
 
 }  // namespace cariesim::training

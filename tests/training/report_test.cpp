@@ -449,7 +449,7 @@ TEST_F(ReportTest, BadInputsAreRefusedNamingTheFile) {
   const fs::path newer = dir_ / "newer.db";
   { StudyDbWriter w(newer, "x", kStudySchemaVersion + 1); }
   EXPECT_THAT(error_of({newer}),
-              HasSubstr(newer.string() + ": study database schema version 2 is newer than"));
+              HasSubstr(newer.string() + ": study database schema version 3 is newer than"));
 
   const fs::path older = dir_ / "older.db";
   { StudyDbWriter w(older, "x", 0); }

@@ -57,7 +57,8 @@ TEST(StudyRun, WritesTheSchemaAndOneRowPerTrialWithItsScores) {
   EXPECT_EQ(test::query(db, "PRAGMA application_id")[0][0], std::to_string(kStudyApplicationId));
   const auto version = test::query(db, "SELECT version, application FROM schema_version");
   ASSERT_EQ(version.size(), 1u);
-  EXPECT_EQ(version[0], (std::vector<std::string>{"1", std::string(kStudyApplication)}));
+  EXPECT_EQ(version[0],
+            (std::vector<std::string>{std::to_string(kStudySchemaVersion), std::string(kStudyApplication)}));
   const auto trials =
       test::query(db,
                   "SELECT station, participant, study, kind, trial, seed, ended_at IS NOT NULL,"

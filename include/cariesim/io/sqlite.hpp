@@ -55,6 +55,9 @@ struct SchemaObject {
   /// A table's columns that must be there as ordinary (not generated, not hidden) columns; a later
   /// writer may add others.
   std::vector<std::string> columns;
+  /// May be missing (a table a later schema version added, absent from older files); when there it
+  /// is checked like the others. The version check (Schema::identify) says which must be there.
+  bool optional = false;
 };
 
 /// What a database of one kind holds: its application id, its version check and exactly its

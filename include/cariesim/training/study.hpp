@@ -157,6 +157,14 @@ struct ScoringDesc {
   double blocked_min_duration = 0.05;  ///< s, a press on caries at F_p* this long without entering is blocked
 };
 
+/// When a trainee sees the debrief of a diagnosis case (`debrief:` in the study file,
+/// docs/training.md): its lesions beside the marks, the scores in words and the replay.
+enum class DebriefWhen : uint8_t {
+  AfterEachCase,  ///< "after-each-case": when each case ends, before the next begins
+  AtEnd,          ///< "at-end": every case's debrief once the last case has ended
+  Never,          ///< "never" (the default; an exam): no debrief in the window
+};
+
 /// A parsed, validated study file.
 struct Study {
   /// The file's `name` (else its stem): a valid_identifier (course.hpp), as it names the trials'
@@ -164,6 +172,7 @@ struct Study {
   std::string name;
   std::string description;   ///< free text
   std::string origin;        ///< file path or "builtin:NAME"
+  std::string source;        ///< the YAML text as read (stored with each trial, docs/training.md)
   uint64_t source_hash = 0;  ///< hash of the YAML text
   StudyKind kind = StudyKind::Tuning;
   int trials = 1;                ///< trials per participant
@@ -172,6 +181,7 @@ struct Study {
   BoundaryDesc boundary;
   DiagnosisDesc diagnosis;
   ScoringDesc scoring;
+  DebriefWhen debrief = DebriefWhen::Never;  ///< when the window shows a case's debrief
 };
 
 /// Parses study YAML. `origin` names the text in messages and anchors relative scene paths. Throws
