@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace cariesim::viewer {
 
@@ -38,7 +39,8 @@ bool parse_preset(const std::string& name, CameraPreset& out) {
   return false;
 }
 
-void OrbitCamera::look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm) {
+void OrbitCamera::look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm,
+                       const std::vector<ToolSection>& tool) {
   // The buccal direction at the focus: away from the arch's centre, in the occlusal plane (+y, toward
   // the throat, when the focus sits on the centre).
   Vec3 buccal(focus.x() - arch_center.x(), focus.y() - arch_center.y(), 0.0);
@@ -49,11 +51,35 @@ void OrbitCamera::look(CameraPreset preset, const Vec3& focus, const Vec3& arch_
   target = focus;
   distance = std::clamp(distance_mm, 1.0, 2000.0);
   switch (preset) {
-    case CameraPreset::Occlusal:
-      // From above, the front of the mouth (-y) at the top of the screen.
+    case CameraPreset::Occlusal: {
+      // From above, the front of the mouth (-y) at the top of the screen; when the explorer's handle
+      // stands in that line of sight, the least tilt from the vertical (5° steps, azimuths every 15°,
+      // the one nearest the front-at-top first) whose line of sight clears it.
       yaw = 0.0;
       pitch = 85.0 * kDeg;
+      if (tool.empty() || tool_clearance(tool) >= kOcclusalClearance) break;
+      double best_yaw = yaw, best_pitch = pitch, best_clearance = tool_clearance(tool);
+      for (int tilt = 1; tilt <= 12; ++tilt) {
+        bool found = false;
+        for (int k = 0; k < 24 && !found; ++k) {
+          // Azimuths 0, +15°, -15°, +30°, ... from the front-at-top direction.
+          const int step = (k + 1) / 2 * (k % 2 == 1 ? 1 : -1);
+          yaw = std::remainder(step * 15.0 * kDeg, 2.0 * M_PI);
+          pitch = (90.0 - 5.0 * tilt) * kDeg;
+          const double c = tool_clearance(tool);
+          if (c > best_clearance) {
+            best_clearance = c;
+            best_yaw = yaw;
+            best_pitch = pitch;
+          }
+          found = c >= kOcclusalClearance;
+        }
+        if (found) break;
+      }
+      yaw = best_yaw;
+      pitch = best_pitch;
       break;
+    }
     case CameraPreset::Buccal:
       // From the cheek, looking toward the tongue, a little from above.
       yaw = yaw_of(-buccal);
@@ -72,6 +98,21 @@ void OrbitCamera::look(CameraPreset preset, const Vec3& focus, const Vec3& arch_
       pitch = 50.0 * kDeg;
       break;
   }
+}
+
+double OrbitCamera::tool_clearance(const std::vector<ToolSection>& tool) const {
+  // Seen from the target: the angle between the eye and each section beyond the working end, less
+  // the angle the section's radius spans at its distance.
+  const Vec3 to_eye = -forward();
+  double clearance = std::numeric_limits<double>::infinity();
+  for (const ToolSection& s : tool) {
+    const Vec3 d = s.center - target;
+    const double r = d.norm();
+    if (!(r > kWorkingEndReach)) continue;
+    const double angle = std::acos(std::clamp(to_eye.dot(d) / r, -1.0, 1.0));
+    clearance = std::min(clearance, angle - std::asin(std::min(1.0, s.radius / r)));
+  }
+  return clearance;
 }
 
 void OrbitCamera::frame(const Eigen::AlignedBox3d& box) {

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "cariesim/common/math.hpp"
 
@@ -24,6 +25,18 @@ const char* preset_name(CameraPreset preset);
 /// Parses a preset name; false when unknown.
 bool parse_preset(const std::string& name, CameraPreset& out);
 
+/// A section of the tool: a point of its centre line and the tool's radius there (mm, world).
+struct ToolSection {
+  Vec3 center = Vec3::Zero();  ///< mm, world
+  double radius = 0.0;         ///< mm
+};
+
+/// rad, the least clearance the occlusal preset keeps between its line of sight to the tip and the
+/// tool's handle (OrbitCamera::tool_clearance).
+inline constexpr double kOcclusalClearance = 12.0 * M_PI / 180.0;
+/// mm from the tip within which the tool (its working end) may stand in front of the tip.
+inline constexpr double kWorkingEndReach = 6.0;
+
 class OrbitCamera {
  public:
   Vec3 target = Vec3::Zero();  ///< mm, the point looked at (world)
@@ -35,8 +48,16 @@ class OrbitCamera {
   /// Frames a box: the target at its centre, the distance so that the whole box fits in view.
   void frame(const Eigen::AlignedBox3d& box);
   /// Looks at `focus` (mm, world; e.g. the explorer's tip) from a clinical direction, `distance` mm
-  /// away; `arch_center` (mm, world) tells buccal from lingual.
-  void look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm = 45.0);
+  /// away; `arch_center` (mm, world) tells buccal from lingual. With the tool's sections (world, tip
+  /// first) the occlusal view looks past the handle: when the handle stands within
+  /// kOcclusalClearance of the line of sight from above, the camera tilts (least first, up to 60°
+  /// from the vertical) to the nearest direction that clears it.
+  void look(CameraPreset preset, const Vec3& focus, const Vec3& arch_center, double distance_mm = 45.0,
+            const std::vector<ToolSection>& tool = {});
+  /// rad, how far the tool stays from the line of sight to the target: the least angle, seen from the
+  /// target, between the eye and a tool section further than kWorkingEndReach from the target, less
+  /// the section's angular radius (negative: the tool hides the target). Infinity without sections.
+  [[nodiscard]] double tool_clearance(const std::vector<ToolSection>& tool) const;
   /// The eye position (mm, world).
   [[nodiscard]] Vec3 eye() const;
   /// Unit vectors of the view in the world: forward (into the screen), right and up on the screen.

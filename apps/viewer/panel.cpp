@@ -70,6 +70,7 @@ void ViewerApp::draw_panel() {
   panel_.h = size.y;
   ImGui::PushItemWidth(-150.0f);
   sections_.clear();
+  grade_box_ = {};
   if (debrief_ && section("Debrief")) panel_debrief();
   if (locked()) {
     // A trainee: the course and its study, the camera; the instructor's passphrase field.
@@ -99,8 +100,10 @@ void ViewerApp::draw_panel() {
     ImGui::TextWrapped("%s", panel_.message.c_str());
     if (panel_.message_is_error) ImGui::PopStyleColor();
   }
-  // How far the panel scrolls when its content is taller than the window (px).
+  // How far the panel scrolls when its content is taller than the window (px), and how far its widest
+  // line reaches past the panel's right edge (px; 0: nothing is clipped).
   panel_.scroll_max = ImGui::GetScrollMaxY();
+  panel_.overflow_x = ImGui::GetScrollMaxX();
   ImGui::End();
 }
 
@@ -127,7 +130,7 @@ void ViewerApp::draw_build_progress() {
   // A trainee sees no stage names (they name the lesion parts).
   ImGui::ProgressBar(static_cast<float>(build_->fraction.load()), ImVec2(-1.0f, 0.0f),
                      locked() ? nullptr : stage.c_str());
-  if (session_) ImGui::TextDisabled("The current scene keeps running until the new one is ready.");
+  if (session_) wrapped(disabled_color(), "The current scene keeps running until the new one is ready.");
   ImGui::End();
 }
 
@@ -167,13 +170,13 @@ void ViewerApp::panel_device() {
   if (st.calibration.readiness == Readiness::Ready)
     ImGui::Text("calibrated");
   else
-    ImGui::TextColored(warn, "calibration: %s", st.calibration.message.c_str());
+    wrapped(warn, "calibration: " + st.calibration.message);
   ImGui::Text("force %s   rate %.0f Hz", st.force_enabled ? "on" : "off (waiting)", snapshot_.rate_hz);
-  if (st.clutched) ImGui::TextColored(warn, "CLUTCH held: the tool stays, move your hand");
+  if (st.clutched) wrapped(warn, "CLUTCH held: the tool stays, move your hand");
   if ((st.faults & kHardwareLost) != 0)
-    ImGui::TextColored(warn, "device lost: no force; it reconnects when the device answers again");
+    wrapped(warn, "device lost: no force; it reconnects when the device answers again");
   else if (st.faults != 0)
-    ImGui::TextColored(warn, "device: %s", describe_hardware_faults(st.faults).c_str());
+    wrapped(warn, "device: " + describe_hardware_faults(st.faults));
   ImGui::TextWrapped("%s", st.rendering().c_str());
 }
 
@@ -196,7 +199,7 @@ void ViewerApp::panel_status() {
   if (device.renders_force)
     ImGui::Text("rendered %.3f N (after force safety)", snapshot_.force.norm());
   else
-    ImGui::TextDisabled("renders no force: see the arrow and the plot");
+    wrapped(disabled_color(), "renders no force: see the arrow and the plot");
   ImGui::Text("insertion depth %.3f mm   contacts %d", out.depth, out.contacts);
   ImGui::Text("soft tissue %.3f N", out.soft_tissue_force);
   if (settings_.show_lesions && out.lesion >= 0 &&
@@ -233,7 +236,7 @@ void ViewerApp::panel_status() {
     const RecorderStatus record = recorder->status();
     ImGui::Text("recording %s (%llu samples)", options_.record.c_str(),
                 static_cast<unsigned long long>(record.written));
-    if (!record.ok) ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", record.message.c_str());
+    if (!record.ok) wrapped(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), record.message);
   }
   // Device counters (the UDP bridge's packets).
   for (const DeviceCounter& c : counters_)
@@ -312,21 +315,41 @@ void ViewerApp::panel_camera() {
     preset_.reset();
   }
   // The clinician's views on the explorer's tip (keys 1-4), and a camera that follows the tip (T).
-  ImGui::Text("view on the tip:");
+  // The buttons flow onto a second line when the panel is too narrow for one.
+  ImGui::Text("view on the tip (F1-F4):");
   constexpr CameraPreset kPresets[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
                                        CameraPreset::Operator};
   for (int k = 0; k < 4; ++k) {
-    ImGui::SameLine();
     const std::string label = std::to_string(k + 1) + " " + preset_name(kPresets[k]);
+    same_line_if_fits(label.c_str());
     if (ImGui::Button(label.c_str())) apply_preset(kPresets[k]);
   }
   ImGui::Checkbox("follow the tip (T)", &follow_tip_);
   if (!locked()) {
-    ImGui::SameLine();
+    same_line_if_fits("tip over everything", ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x);
     ImGui::Checkbox("tip over everything", &settings_.tip_xray);
   }
-  ImGui::TextDisabled("left-drag move, wheel depth (shift: fine), right-drag turn;");
-  ImGui::TextDisabled("middle- or alt-drag orbit, ctrl+wheel zoom");
+  wrapped(disabled_color(),
+          "left-drag move, wheel depth (shift: fine), right-drag turn; middle- or alt-drag orbit, "
+          "ctrl+wheel zoom");
+}
+
+void wrapped(const ImVec4& color, const std::string& text) {
+  // Wrapped at the panel's edge, in a colour.
+  ImGui::PushStyleColor(ImGuiCol_Text, color);
+  ImGui::TextWrapped("%s", text.c_str());
+  ImGui::PopStyleColor();
+}
+
+ImVec4 disabled_color() { return ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled); }
+
+void same_line_if_fits(const char* label, float extra) {
+  // The item's width: its label and frame padding (a button's), plus `extra` (a checkbox's box).
+  const ImGuiStyle& style = ImGui::GetStyle();
+  const float width = ImGui::CalcTextSize(label, nullptr, true).x + 2.0f * style.FramePadding.x + extra;
+  const float last = ImGui::GetItemRectMax().x;
+  const float right = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x;
+  if (last + style.ItemSpacing.x + width <= right) ImGui::SameLine();
 }
 
 bool ViewerApp::section(const char* name) {
@@ -356,7 +379,7 @@ void ViewerApp::panel_instructor() {
     return;
   }
   if (!lock_.can_unlock()) {
-    ImGui::TextDisabled("No instructor passphrase: run with --course to allow unlocking.");
+    wrapped(disabled_color(), "No instructor passphrase: run with --course to allow unlocking.");
     return;
   }
   // While a passphrase is checked (on the lock's worker) or the back-off runs, no new try.
@@ -374,10 +397,11 @@ void ViewerApp::panel_instructor() {
   if (lock_.checking())
     ImGui::TextDisabled("Checking the passphrase...");
   else if (wait > 0.0)
-    ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s Too many wrong passphrases: next try in %.0f s.",
-                       lock_message_.c_str(), std::ceil(wait));
+    wrapped(
+        ImVec4(1.0f, 0.4f, 0.4f, 1.0f),
+        fmt::format("{} Too many wrong passphrases: next try in {:.0f} s.", lock_message_, std::ceil(wait)));
   else if (!lock_message_.empty())
-    ImGui::TextColored(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), "%s", lock_message_.c_str());
+    wrapped(ImVec4(1.0f, 0.4f, 0.4f, 1.0f), lock_message_);
 }
 
 void ViewerApp::panel_lesion() {
@@ -427,7 +451,7 @@ void ViewerApp::panel_lesion() {
   } else if (ImGui::Button("Save to the scene file")) {
     save_scene();
   }
-  ImGui::TextDisabled("Saving rewrites the YAML: comments are not kept.");
+  wrapped(disabled_color(), "Saving rewrites the YAML: comments are not kept.");
 }
 
 void ViewerApp::post(const ParamChange& change) {
@@ -543,6 +567,7 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.field("w", static_cast<double>(panel_.w * scale.x))
       .field("h", static_cast<double>(panel_.h * scale.y));
   json.field("scroll_max", static_cast<double>(panel_.scroll_max * scale.y));
+  json.field("overflow_x", static_cast<double>(panel_.overflow_x * scale.x));
   json.end_object();
   json.field("camera", preset_ ? preset_name(*preset_) : "framed");
   json.key("view")
@@ -562,6 +587,14 @@ std::string ViewerApp::status_json(int width, int height) const {
   json.key("tip");
   if (pixel(out.graphic.p, px))
     json.begin_array().value(px.x()).value(px.y()).end_array();
+  else
+    json.null();
+  // deg, how far the tool's handle stays from the line of sight to the tip (camera.hpp; negative: it
+  // hides the tip), null without a tool in view.
+  const double clearance = camera_.tool_clearance(tool_sections());
+  json.key("tool_clearance_deg");
+  if (std::isfinite(clearance))
+    json.value(clearance * 180.0 / M_PI);
   else
     json.null();
   json.key("tool_points").begin_array();

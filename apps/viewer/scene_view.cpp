@@ -111,12 +111,17 @@ SceneView::SceneView(const Model& model) : model_(model) {
 
   // Points every ~10 mm along the tool's centre line (from its sphere chain, tip first).
   const std::vector<ToolSphere> chain = make_explorer_spheres(model.tool.params, 0.05);
-  double along = 0.0, next = 0.0;
+  // The sections every ~2 mm (the camera's line of sight past the handle, camera.hpp).
+  double along = 0.0, next = 0.0, next_section = 0.0;
   for (std::size_t i = 0; i < chain.size(); ++i) {
     if (i > 0) along += (chain[i].center - chain[i - 1].center).norm();
     if (along >= next) {
       tool_axis_points_.push_back(chain[i].center);
       next += 10.0;
+    }
+    if (along >= next_section) {
+      tool_sections_.push_back({chain[i].center, chain[i].radius});
+      next_section += 2.0;
     }
     // The working end: the chain's first kWorkingEnd mm.
     if (along <= kWorkingEnd) {

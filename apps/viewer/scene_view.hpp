@@ -63,6 +63,8 @@ class SceneView {
   [[nodiscard]] Tissue object_display_tissue(int object, const ViewSettings& settings) const;
   /// Points on the tool's centre line (tool frame, mm), every ~10 mm from the tip to the handle end.
   [[nodiscard]] const std::vector<Vec3>& tool_axis_points() const { return tool_axis_points_; }
+  /// The tool's sections (tool frame, mm), every ~2 mm from the tip to the handle end, with its radius.
+  [[nodiscard]] const std::vector<ToolSection>& tool_sections() const { return tool_sections_; }
   /// Vertices moved by the last frame's dents.
   [[nodiscard]] std::size_t dented_vertices() const { return dented_vertices_; }
 
@@ -96,6 +98,7 @@ class SceneView {
   std::vector<std::vector<uint8_t>> levels_;  // per object, then the tool last
   std::vector<TreeCut> cuts_;                 // per object, then the tool last
   std::vector<Vec3> tool_axis_points_;
+  std::vector<ToolSection> tool_sections_;
   std::vector<SphereInstance> working_end_;  // the tool's sphere chain near the tip, tool frame
   Eigen::AlignedBox3d bounds_;
   int max_level_ = 0;

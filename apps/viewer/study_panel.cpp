@@ -58,6 +58,10 @@ bool ViewerApp::trial_live() const {
   return run_ && run_->in_trial() && !build_ && session_ && session_->run->running();
 }
 
+bool ViewerApp::diagnosis_live() const {
+  return trial_live() && run_->setup().kind == training::StudyKind::Diagnosis && !run_->answers().ended_at;
+}
+
 void ViewerApp::start_study(const std::string& participant) {
   // The run for this participant on this station's database (created with its folder), then the
   // first trial.
@@ -123,9 +127,17 @@ void ViewerApp::begin_trial() {
     return;
   }
   const training::TrialSetup& setup = copy;
+  const std::string label = fmt::format("trial {} of {}", setup.index + 1, run_->trial_count());
+  // The scene built ahead while the last trial ran, when it is this trial's; else built now.
+  if (next_build_ && next_build_->key == setup.scene_origin + "\n" + setup.scene_yaml) {
+    build_error_.clear();
+    build_ = std::move(next_build_);
+    std::fprintf(stderr, "run: %s was built in the background\n", label.c_str());
+    return;
+  }
+  if (next_build_) stale_builds_.push_back(std::move(next_build_));
   request_build(
-      fmt::format("trial {} of {}", setup.index + 1, run_->trial_count()), [copy] { return copy.scene(); },
-      true);
+      label, [copy] { return copy.scene(); }, true);
 }
 
 void ViewerApp::end_trial() {
@@ -259,14 +271,21 @@ void ViewerApp::play_answers() {
       entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
   const training::TrialSetup& setup = run_->setup();
   const double t = snapshot_.t;
-  while (answer_mark_next_ < entry.marks.size() && entry.marks[answer_mark_next_].t <= t) {
-    const training::ScriptedMark& m = entry.marks[answer_mark_next_++];
+  // The marks whose servo time has come, each at that time with the tip the servo thread took then
+  // (SceneSession::capture), as `cariesim study run` takes it from the recording; a mark after the
+  // entry's end or the time limit is not made.
+  const TimedCapture* capture = session_->capture.get();
+  const std::size_t taken = capture != nullptr ? std::min(capture->taken(), answer_order_.size()) : 0;
+  while (answer_mark_next_ < taken) {
+    const training::ScriptedMark& m = entry.marks[answer_order_[answer_mark_next_]];
+    const TimedCapture::Entry& tip = capture->entry(answer_mark_next_++);
+    if ((setup.time_limit > 0.0 && m.t > setup.time_limit) || (entry.end && m.t > *entry.end)) continue;
     try {
       // An explicit point counts as touched (as `cariesim study run` takes it); else the tip's contact.
       if (m.at)
-        run_->mark(*m.at, m.grade, t, m.contact);
+        run_->mark(*m.at, m.grade, m.t, m.contact);
       else
-        run_->mark(snapshot_.out.graphic.p, m.grade, t, snapshot_.out.contacts > 0);
+        run_->mark(tip.graphic.p, m.grade, m.t, tip.contacts > 0);
     } catch (const Error& e) {
       study_message_ = e.what();
       study_message_is_error_ = true;
@@ -313,7 +332,8 @@ void ViewerApp::play_answers() {
       if (trial_live()) end_trial();  // an incomplete answer still ends the trial (its row stays open)
       break;
     case training::StudyKind::Diagnosis:
-      run_->end_case(t);
+      // At the entry's end time (servo time), as `cariesim study run` ends it.
+      run_->end_case(entry.end ? std::min(*entry.end, t) : t);
       end_trial();
       break;
   }
@@ -384,14 +404,11 @@ void ViewerApp::panel_study() {
           // Marks with a grade, the countdown, End case.
           ImGui::TextWrapped(
               "Find the carious lesions. Hold the tip on a suspected lesion and press M (or "
-              "the device's button) to mark it with the grade chosen here; End case when done.");
+              "the device's button) to mark it with the grade shown here (keys 1 and 2 choose "
+              "it); End case when done.");
           if (setup.time_limit > 0.0)
             ImGui::Text("time left %s", clock_text(setup.time_limit - snapshot_.t).c_str());
-          ImGui::Text("next mark:");
-          ImGui::SameLine();
-          ImGui::RadioButton("mild", &grade_choice_, 0);
-          ImGui::SameLine();
-          ImGui::RadioButton("severe", &grade_choice_, 1);
+          panel_grade();
           if (ImGui::Button("Mark (M)")) study_mark();
           ImGui::SameLine();
           if (ImGui::Button("End case")) {
@@ -416,6 +433,29 @@ void ViewerApp::panel_study() {
   }
 }
 
+void ViewerApp::panel_grade() {
+  // The grade of the next mark, large enough to read from the chair with the stylus in hand: two
+  // half-width buttons at twice the text size, the chosen one lit (the mouse still chooses).
+  ImGui::Text("grade of the next mark (1 mild, 2 severe):");
+  constexpr float kScale = 2.0f;
+  const float width = 0.5f * (ImGui::GetContentRegionAvail().x - ImGui::GetStyle().ItemSpacing.x);
+  const ImVec4 lit[2] = {ImVec4(0.80f, 0.60f, 0.10f, 1.0f), ImVec4(0.75f, 0.18f, 0.12f, 1.0f)};
+  ImGui::SetWindowFontScale(kScale);
+  for (int g = 0; g < 2; ++g) {
+    if (g > 0) ImGui::SameLine();
+    const bool chosen = grade_choice_ == g;
+    ImGui::PushStyleColor(ImGuiCol_Button, chosen ? lit[g] : ImVec4(0.18f, 0.18f, 0.20f, 1.0f));
+    ImGui::PushStyleColor(ImGuiCol_Text, chosen ? ImVec4(1, 1, 1, 1) : ImVec4(0.45f, 0.45f, 0.45f, 1.0f));
+    if (ImGui::Button(g == 0 ? "MILD##grade" : "SEVERE##grade", ImVec2(width, 0.0f))) grade_choice_ = g;
+    ImGui::PopStyleColor(2);
+    if (chosen) {
+      const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+      grade_box_ = {lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+    }
+  }
+  ImGui::SetWindowFontScale(1.0f);
+}
+
 void ViewerApp::study_json(io::JsonWriter& json) const {
   // The study's progress as the panel shows it (nothing of what the trial hides).
   json.key("study");
@@ -435,6 +475,15 @@ void ViewerApp::study_json(io::JsonWriter& json) const {
   json.field("finished", study_finished());
   json.field("ended", static_cast<int>(results_.size()));
   json.field("marks", run_ && run_->in_trial() ? static_cast<int>(run_->answers().marks.size()) : 0);
+  // The grade of the next mark, and where the panel shows it (px; zero size when not shown).
+  json.field("grade", std::string(grade_choice_ == 0 ? "mild" : "severe"));
+  const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+  json.key("grade_box").begin_object();
+  json.field("x", static_cast<double>(grade_box_[0] * scale.x))
+      .field("y", static_cast<double>(grade_box_[1] * scale.y));
+  json.field("w", static_cast<double>(grade_box_[2] * scale.x))
+      .field("h", static_cast<double>(grade_box_[3] * scale.y));
+  json.end_object();
   json.field("database", course_->database().string());
   json.field("message", study_message_);
   json.end_object();

@@ -7,6 +7,8 @@
 #include <imgui.h>
 #include <imgui/backends/imgui_impl_glfw.h>
 #include <imgui/backends/imgui_impl_opengl3.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -118,6 +120,10 @@ ViewerApp::~ViewerApp() {
   session_.reset();
   if (build_ && build_->result.valid()) build_->result.wait();
   build_.reset();
+  if (next_build_) stale_builds_.push_back(std::move(next_build_));
+  for (const auto& b : stale_builds_)
+    if (b->result.valid()) b->result.wait();
+  stale_builds_.clear();
   renderer_.reset();
   if (imgui_ready_) {
     ImGui_ImplOpenGL3_Shutdown();
@@ -165,23 +171,56 @@ void ViewerApp::request_build(const std::string& source) {
 void ViewerApp::request_build(const std::string& label, std::function<SceneDesc()> load, bool trial) {
   // Parse and build on a worker thread; progress goes to the panel.
   build_error_.clear();
-  build_ = std::make_unique<PendingBuild>();
-  build_->source = label;
-  build_->trial = trial;
-  PendingBuild* pending = build_.get();
-  // In trainee mode no part of an object with lesions goes into the station's tree cache.
-  pending->result = std::async(std::launch::async, [pending, load = std::move(load), trainee = trainee_] {
-    const SceneDesc desc = load();
-    BuildOptions build;
-    build.cache_lesion_parts = !trainee;
-    build.progress = [pending](std::string_view stage, double fraction) {
-      const std::lock_guard lock(pending->mutex);
-      pending->stage = std::string(stage);
-      pending->fraction.store(fraction);
-    };
-    return std::make_unique<Model>(build_model(desc, build));
-  });
+  build_ = start_build(label, std::move(load), trial, false);
   std::fprintf(stderr, "run: building %s\n", label.c_str());
+}
+
+std::unique_ptr<PendingBuild> ViewerApp::start_build(const std::string& label,
+                                                     std::function<SceneDesc()> load, bool trial,
+                                                     bool background) {
+  auto build = std::make_unique<PendingBuild>();
+  build->source = label;
+  build->trial = trial;
+  PendingBuild* pending = build.get();
+  // In trainee mode no part of an object with lesions goes into the station's tree cache. A build
+  // ahead runs niced, so that the window (and the servo thread, real-time anyway) keep their cores.
+  pending->result =
+      std::async(std::launch::async, [pending, load = std::move(load), trainee = trainee_, background] {
+        if (background) (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 10);
+        const SceneDesc desc = load();
+        BuildOptions options;
+        options.cache_lesion_parts = !trainee;
+        options.progress = [pending](std::string_view stage, double fraction) {
+          const std::lock_guard lock(pending->mutex);
+          pending->stage = std::string(stage);
+          pending->fraction.store(fraction);
+        };
+        return std::make_unique<Model>(build_model(desc, options));
+      });
+  return build;
+}
+
+void ViewerApp::prepare_next_trial() {
+  // The next trial's scene (as begin_trial will make it), built while the trainee works on this one.
+  if (!run_ || next_build_ || run_->current_trial() + 1 >= run_->trial_count()) return;
+  training::TrialSetup next;
+  try {
+    next = run_->trial_setup(run_->current_trial() + 1);
+  } catch (const Error&) {
+    return;  // begin_trial meets the same problem and reports it
+  }
+  const std::string label = fmt::format("trial {} of {}", next.index + 1, run_->trial_count());
+  next_build_ = start_build(
+      label, [next] { return next.scene(); }, true, true);
+  next_build_->key = next.scene_origin + "\n" + next.scene_yaml;
+  std::fprintf(stderr, "run: building %s in the background\n", label.c_str());
+}
+
+void ViewerApp::reap_builds() {
+  // A build whose future is ready can go (its worker no longer touches it).
+  std::erase_if(stale_builds_, [](const std::unique_ptr<PendingBuild>& b) {
+    return !b->result.valid() || b->result.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  });
 }
 
 void ViewerApp::poll_build() {
@@ -198,6 +237,7 @@ void ViewerApp::poll_build() {
                    model->objects.size());
     check_debrief_scene(*model);
     start_session(std::move(model), done->source, done->trial);
+    if (done->trial) prepare_next_trial();
   } catch (const Error& e) {
     // A trial's scene that cannot be built or run leaves that trial unfinished (its row keeps
     // ended_at NULL); otherwise the first scene's failure is fatal.
@@ -242,10 +282,21 @@ void ViewerApp::start_session(std::unique_ptr<Model> model, const std::string& s
     // Held in memory until the trial's session stops: its lesion parameters and the samples' lesion
     // column are not on disk while the trainee probes.
     session_options.recorder.hold_until_stop = true;
+    answer_order_.clear();
     if (answers_ && !answers_->trials.empty()) {
       const auto& entries = answers_->trials;
       const auto& entry = entries[std::min<std::size_t>(run_->current_trial(), entries.size() - 1)];
       if (!entry.device.empty()) session_options.device = entry.device;
+      // Its marks by time; the servo thread takes the tip at each one's servo time (play_answers).
+      answer_order_.resize(entry.marks.size());
+      for (std::size_t i = 0; i < answer_order_.size(); ++i) answer_order_[i] = i;
+      std::stable_sort(answer_order_.begin(), answer_order_.end(), [&entry](std::size_t a, std::size_t b) {
+        return entry.marks[a].t < entry.marks[b].t;
+      });
+      std::vector<double> times;
+      for (const std::size_t i : answer_order_) times.push_back(entry.marks[i].t);
+      s->capture = std::make_unique<TimedCapture>(std::move(times));
+      session_options.capture = s->capture.get();
     }
   } else if (!options_.record.empty() && !record_used_) {
     session_options.record = options_.record;
@@ -336,13 +387,19 @@ void ViewerApp::handle_input() {
     if (ImGui::IsKeyPressed(GLFW_KEY_F, false) && session_) camera_.frame(session_->view->bounds());
     // A trainee has no reveal key.
     if (ImGui::IsKeyPressed(GLFW_KEY_L, false) && !locked()) settings_.show_lesions = !settings_.show_lesions;
-    // 1-4: the clinician's views on the explorer's tip; T: the camera follows the tip.
+    // F1-F4 (and 1-4 outside a diagnosis case, where 1 and 2 choose the grade): the clinician's views
+    // on the explorer's tip; T: the camera follows the tip.
     constexpr CameraPreset kKeys[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,
                                       CameraPreset::Operator};
+    const bool grading = diagnosis_live();
     for (int k = 0; k < 4; ++k)
-      if (ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)) apply_preset(kKeys[k]);
+      if (ImGui::IsKeyPressed(GLFW_KEY_F1 + k, false) ||
+          ((!grading || k >= 2) && ImGui::IsKeyPressed(GLFW_KEY_1 + k, false)))
+        apply_preset(kKeys[k]);
     if (ImGui::IsKeyPressed(GLFW_KEY_T, false)) follow_tip_ = !follow_tip_;
-    // M: a diagnosis mark at the tip.
+    // In a diagnosis case: 1 mild, 2 severe (the next mark's grade); M marks at the tip.
+    if (grading && ImGui::IsKeyPressed(GLFW_KEY_1, false)) grade_choice_ = 0;
+    if (grading && ImGui::IsKeyPressed(GLFW_KEY_2, false)) grade_choice_ = 1;
     if (ImGui::IsKeyPressed(GLFW_KEY_M, false)) study_mark();
   }
 }
@@ -419,19 +476,38 @@ void ViewerApp::apply_preset(CameraPreset preset) {
     pending_preset_ = preset;
     return;
   }
-  camera_.look(preset, snapshot_.out.graphic.p, session_->view->bounds().center());
+  camera_.look(preset, snapshot_.out.graphic.p, session_->view->bounds().center(), 45.0, tool_sections());
   preset_ = preset;
   pending_preset_.reset();
 }
 
+std::vector<ToolSection> ViewerApp::tool_sections() const {
+  // The tool's sections where the servo last drew the graphic tool.
+  std::vector<ToolSection> world;
+  if (!session_ || !have_snapshot_) return world;
+  for (const ToolSection& s : session_->view->tool_sections())
+    world.push_back({snapshot_.out.graphic.transform(s.center), s.radius});
+  return world;
+}
+
 void ViewerApp::read_snapshot() {
-  if (!session_) return;
+  // A stopped session (a trial that ended, its next one building) publishes nothing new: its last
+  // snapshot is not taken up again as the running session's.
+  if (!session_ || !session_->run->running()) return;
   // The newest snapshot (lock-free); the plot keeps a few seconds of them.
   if (session_->run->latest(snapshot_)) {
     have_snapshot_ = true;
     history_.add(snapshot_.t, snapshot_.out.force, snapshot_.out.torque);
     if (pending_preset_) apply_preset(*pending_preset_);
-    if (follow_tip_ && snapshot_.out.graphic.p.allFinite()) camera_.target = snapshot_.out.graphic.p;
+    if (follow_tip_ && snapshot_.out.graphic.p.allFinite()) {
+      camera_.target = snapshot_.out.graphic.p;
+      // The occlusal view following the tip looks past the handle again when the hand turned it into
+      // the line of sight (half the clearance: no back and forth at the edge).
+      if (preset_ == CameraPreset::Occlusal &&
+          camera_.tool_clearance(tool_sections()) < 0.5 * kOcclusalClearance)
+        camera_.look(CameraPreset::Occlusal, snapshot_.out.graphic.p, session_->view->bounds().center(),
+                     camera_.distance, tool_sections());
+    }
   }
   // Timing and device counters about once a second.
   const auto now = std::chrono::steady_clock::now();
@@ -481,6 +557,7 @@ int ViewerApp::run() {
     poll_lock();
     run_script();
     poll_build();
+    reap_builds();
 
     // One frame: input, the newest snapshot, the scene, the panel.
     ImGui_ImplOpenGL3_NewFrame();

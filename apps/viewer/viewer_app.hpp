@@ -3,6 +3,7 @@
 /// servo loop + record), the scene builder thread, input, drawing, the ImGui panel, exit and
 /// screenshot. Internal to apps/viewer.
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -33,6 +34,7 @@
 #include "viewer.hpp"
 
 struct GLFWwindow;
+struct ImVec4;
 
 namespace cariesim::io {
 class JsonWriter;
@@ -46,6 +48,8 @@ namespace cariesim::viewer {
 struct SceneSession {
   std::string source;  ///< scene name or file it was built from
   std::unique_ptr<Model> model;
+  /// The answers file's mark times, taken by the servo thread (declared before `run`: it outlives it)
+  std::unique_ptr<TimedCapture> capture;
   std::unique_ptr<Session> run;    ///< device, servo loop and record
   MouseDevice* mouse = nullptr;    ///< the device when it is the mouse
   ReplayDevice* replay = nullptr;  ///< the device when it is a replay (device/replay.hpp)
@@ -60,6 +64,7 @@ struct SceneSession {
 struct PendingBuild {
   std::string source;
   bool trial = false;  ///< the scene of the course study's current trial (its session records the trial)
+  std::string key;     ///< a trial's scene (origin and text): whether a build begun ahead is that trial's
   std::future<std::unique_ptr<Model>> result;
   std::mutex mutex;  // guards `stage` (worker and UI thread; never the servo thread)
   std::string stage;
@@ -77,6 +82,7 @@ struct PanelState {
   float force_scale = 1.0f;          ///< global force scale, in [0, 1]
   float x = 0, y = 0, w = 0, h = 0;  ///< px, where the panel window was drawn last
   float scroll_max = 0;              ///< px, how far its content scrolls (0: it fits)
+  float overflow_x = 0;              ///< px, how far its widest line reaches past its right edge (0: none)
 };
 
 class ViewerApp {
@@ -95,6 +101,13 @@ class ViewerApp {
   void request_build(const std::string& source);
   /// Builds a scene that `load` describes (on the worker thread); `label` names it in messages.
   void request_build(const std::string& label, std::function<SceneDesc()> load, bool trial);
+  /// Starts building on a worker thread (at a lower CPU priority when `background`) and returns it.
+  std::unique_ptr<PendingBuild> start_build(const std::string& label, std::function<SceneDesc()> load,
+                                            bool trial, bool background);
+  /// Begins building the next trial's scene in the background while the current trial runs.
+  void prepare_next_trial();
+  /// Drops the builds begun ahead that were not used, once their workers finished (every frame).
+  void reap_builds();
   void poll_build();
   /// Starts a session on `model`; its device is next_device_ when set (once), else the options'.
   void start_session(std::unique_ptr<Model> model, const std::string& source, bool trial = false);
@@ -132,6 +145,8 @@ class ViewerApp {
   ForceHistory history_;
   std::unique_ptr<SceneSession> session_;
   std::unique_ptr<PendingBuild> build_;
+  std::unique_ptr<PendingBuild> next_build_;                 // the next trial's scene, built ahead
+  std::vector<std::unique_ptr<PendingBuild>> stale_builds_;  // built ahead, not used, still running
   std::string build_error_;
   bool record_used_ = false;  // --record covers the first session only
   ServoSnapshot snapshot_;
@@ -148,6 +163,8 @@ class ViewerApp {
   std::optional<CameraPreset> pending_preset_;
   bool follow_tip_ = false;
   void apply_preset(CameraPreset preset);
+  /// The graphic tool's sections (world), for the camera's line of sight past the handle.
+  [[nodiscard]] std::vector<ToolSection> tool_sections() const;
 
   // Trainee mode (trainee.hpp): on or not, the course, the instructor's lock, the panel's
   // passphrase field and the outcome of the last attempt.
@@ -177,14 +194,19 @@ class ViewerApp {
   int tuned_lesion_ = -1;                        // the model's lesion the sliders change
   std::vector<int> shape_choice_;                // per cube: index into shape_choices, -1: not named
   int grade_choice_ = 0;                         // the next mark's grade: 0 mild, 1 severe
+  std::array<float, 4> grade_box_{};             // px, x y w h of the chosen grade in the last frame
   uint32_t previous_buttons_ = 0;                // device buttons in the last snapshot
   uint32_t previous_actions_ = 0;                // device actions (DeviceAction) in the last snapshot
   bool device_seen_valid_ = false;               // the trial's device gave a valid reading
   std::optional<training::ScriptedAnswers> answers_;
-  std::size_t answer_mark_next_ = 0;
+  std::size_t answer_mark_next_ = 0;  // next of answer_order_ to mark
+  std::vector<std::size_t>
+      answer_order_;  // the trial's entry's marks by time (SceneSession::capture's order)
   std::vector<training::TrialResult> results_;
   [[nodiscard]] bool study_finished() const { return run_ && run_->finished(); }
   [[nodiscard]] bool trial_live() const;
+  /// True while a diagnosis case takes marks (keys 1 and 2 then choose the grade).
+  [[nodiscard]] bool diagnosis_live() const;
   /// The last trial problem in full (it may name the case): for the unlocked instructor's panel.
   std::string problem_detail_;
   /// A trial problem: its detail to problem_detail_, and to stderr unless in trainee mode.
@@ -200,6 +222,8 @@ class ViewerApp {
   void submit_shapes();
   void play_answers();
   void panel_study();
+  /// The grade of the next mark, large (keys 1 and 2, or a click, choose it).
+  void panel_grade();
   void study_json(io::JsonWriter& json) const;
 
   // The debrief (debrief.cpp): the one shown, those waiting (a study's `debrief: at-end`), and the
@@ -226,6 +250,15 @@ class ViewerApp {
   int script_key_down_ = -1;
   void run_script();
 };
+
+/// ImGui::SameLine() when an item labelled `label` (a button's frame, plus `extra` px) still fits on
+/// the current line of the panel; otherwise the item starts a new line.
+void same_line_if_fits(const char* label, float extra = 0.0f);
+
+/// Text in `color`, wrapped at the panel's right edge.
+void wrapped(const ImVec4& color, const std::string& text);
+/// The colour of ImGui's disabled text.
+ImVec4 disabled_color();
 
 /// px, width of the panel docked at the window's right edge.
 inline constexpr float kPanelWidth = 400.0f;

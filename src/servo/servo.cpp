@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <utility>
 
 #include "cariesim/common/clock.hpp"
 #include "cariesim/common/cpu.hpp"
@@ -378,6 +379,18 @@ bool ServoLoop::update_params() {
   return changed;
 }
 
+TimedCapture::TimedCapture(std::vector<double> times) : times_(std::move(times)), entries_(times_.size()) {
+  std::sort(times_.begin(), times_.end());
+}
+
+void TimedCapture::take(double t, const Pose& graphic, int contacts) noexcept {
+  // Every time reached, in order; the count is published after the entries are written.
+  std::size_t n = taken_.load(std::memory_order_relaxed);
+  const std::size_t before = n;
+  while (n < times_.size() && times_[n] <= t) entries_[n++] = Entry{t, graphic, contacts};
+  if (n != before) taken_.store(n, std::memory_order_release);
+}
+
 int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
   // Read the device. The step's input guard judges the reading (an unusable one is replaced by the
   // last good pose) and safety acts on its verdict.
@@ -420,6 +433,9 @@ int64_t ServoLoop::cycle(double t, int64_t deadline_ns, int64_t wake_ns) {
     rate_mark_ns_ = wake_ns;
     rate_mark_cycles_ = cycles;
   }
+
+  // Poses asked for at this servo time (TimedCapture), taken before the snapshot that shows the time.
+  if (options_.capture != nullptr) options_.capture->take(t, out.graphic, out.contacts);
 
   // Publish the snapshot for the viewer.
   snapshot_.out = out;

@@ -136,6 +136,7 @@ void Session::make_loop(const Params& params) {
   servo.standby = options_.standby;
   servo.safety = options_.safety;
   servo.record = recorder_ ? &recorder_->queue() : nullptr;
+  servo.capture = options_.capture;
   servo.params = params;
   loop_ = std::make_unique<ServoLoop>(model_, *device_, servo);
   loop_->latest_params(params_);

@@ -536,12 +536,18 @@ uint64_t StudyRun::seed_of_trial(int index) const {
   return trial_seed(options_.same_cases ? seed_ : participant_seed(seed_, options_.participant), index);
 }
 
+TrialSetup StudyRun::trial_setup(int index) const {
+  // The trial as begin_trial makes it: its seed's draws, then the run's scene overrides.
+  TrialSetup setup = make_trial(study_, index, seed_of_trial(index));
+  if (!options_.overrides.empty())
+    setup.scene_yaml = override_scene_text(setup.scene_yaml, setup.scene_origin, options_.overrides);
+  return setup;
+}
+
 const TrialSetup& StudyRun::begin_trial() {
   if (finished()) throw Error(fmt::format("study {}: all {} trials have ended", study_.name, trial_count_));
   if (in_trial_) throw Error(fmt::format("study {}: trial {} has begun already", study_.name, current_ + 1));
-  setup_ = make_trial(study_, current_, seed_of_trial(current_));
-  if (!options_.overrides.empty())
-    setup_.scene_yaml = override_scene_text(setup_.scene_yaml, setup_.scene_origin, options_.overrides);
+  setup_ = trial_setup(current_);
   answers_ = TrialAnswers{};
   answers_.shapes.assign(setup_.cubes.size(), std::string());
   level_ = 0;

@@ -1,14 +1,19 @@
-// The orbit camera (apps/viewer/camera.cpp): framing, projection, screen axes, limits.
+// The orbit camera (apps/viewer/camera.cpp): framing, projection, screen axes, limits, the occlusal
+// preset past the handle.
 #include "viewer/camera.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace {
 
 using cariesim::Vec3;
+using cariesim::viewer::CameraPreset;
+using cariesim::viewer::kOcclusalClearance;
 using cariesim::viewer::OrbitCamera;
+using cariesim::viewer::ToolSection;
 
 // The target projects to the centre of the viewport; the eye is `distance` away from it.
 TEST(OrbitCamera, TargetProjectsToTheCentre) {
@@ -110,6 +115,36 @@ TEST(OrbitCamera, OrbitAndZoomLimits) {
   camera.zoom(std::nan(""));
   camera.zoom(-2.0);
   EXPECT_DOUBLE_EQ(camera.distance, 2000.0);
+}
+
+// The occlusal preset looks past the explorer's handle: a handle standing straight up from the tip
+// (4.5 mm radius, from 7 mm to 120 mm) hides the tip from the preset's usual direction (5° off the
+// vertical), so the camera tilts until its line of sight clears the handle by the preset's 12°, the
+// least tilt that does; a handle lying away to the side leaves the usual direction as it is.
+TEST(OrbitCamera, OcclusalPresetLooksPastTheHandle) {
+  const Vec3 tip(10.0, 20.0, 5.0);
+  std::vector<ToolSection> upright, sideways;
+  for (double s = 0.0; s <= 120.0; s += 2.0) {
+    upright.push_back({tip + Vec3(0.0, 0.0, s), s < 7.0 ? 0.3 : 4.5});
+    sideways.push_back({tip + Vec3(s, 0.0, 0.2 * s), s < 7.0 ? 0.3 : 4.5});
+  }
+  OrbitCamera camera;
+  camera.look(CameraPreset::Occlusal, tip, Vec3::Zero());
+  EXPECT_LT(camera.tool_clearance(upright), 0.0) << "the handle hides the tip from the usual direction";
+
+  camera.look(CameraPreset::Occlusal, tip, Vec3::Zero(), 45.0, upright);
+  EXPECT_GE(camera.tool_clearance(upright), kOcclusalClearance);
+  EXPECT_TRUE(camera.target.isApprox(tip));
+  // The least tilt: the handle's angular radius at its nearest counted section plus the clearance,
+  // to the next 5° step; the view still from above.
+  const double needed = kOcclusalClearance + std::asin(4.5 / 8.0);
+  EXPECT_LE(M_PI / 2.0 - camera.pitch, needed + 5.0 * M_PI / 180.0 + 1e-9);
+  EXPECT_GE(camera.pitch, 30.0 * M_PI / 180.0);
+
+  camera.look(CameraPreset::Occlusal, tip, Vec3::Zero(), 45.0, sideways);
+  EXPECT_NEAR(camera.yaw, 0.0, 1e-12);
+  EXPECT_NEAR(camera.pitch, 85.0 * M_PI / 180.0, 1e-12);
+  EXPECT_TRUE(std::isinf(camera.tool_clearance({})));
 }
 
 }  // namespace

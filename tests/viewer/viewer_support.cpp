@@ -17,12 +17,13 @@ fs::path viewer_artefacts() {
 
 bool have_xvfb() { return on_path("xvfb-run"); }
 
-std::vector<std::string> xvfb_cariesim() {
-  return {"timeout", "900", "xvfb-run", "-a", "-s", "-screen 0 1280x800x24", CARIESIM_EXE};
+std::vector<std::string> xvfb_cariesim(const std::string& screen) {
+  return {"timeout", "900", "xvfb-run", "-a", "-s", "-screen 0 " + screen + "x24", CARIESIM_EXE};
 }
 
-RunResult run_under_xvfb(const std::string& args, const std::string& name, const fs::path& working_dir) {
-  std::vector<std::string> argv = xvfb_cariesim();
+RunResult run_under_xvfb(const std::string& args, const std::string& name, const fs::path& working_dir,
+                         const std::string& screen) {
+  std::vector<std::string> argv = xvfb_cariesim(screen);
   for (std::string& w : words(args)) argv.push_back(std::move(w));
   io::ProcessOptions options;
   options.environment = {"CARIESIM_CACHE_DIR=" + (fs::path(CARIESIM_BINARY_DIR) / "test-cache").string()};

@@ -23,12 +23,15 @@ struct RunResult {
 
 /// `cariesim ARGS` under xvfb-run with the shared test tree cache (ARGS split as support/command.hpp
 /// says, no shell), in `working_dir` (empty: the test's folder), its output also in
-/// viewer_artefacts()/NAME.out and NAME.log; generous time limit.
+/// viewer_artefacts()/NAME.out and NAME.log; generous time limit. `screen`: the virtual screen's
+/// size, "WIDTHxHEIGHT" (px).
 RunResult run_under_xvfb(const std::string& args, const std::string& name,
-                         const std::filesystem::path& working_dir = {});
+                         const std::filesystem::path& working_dir = {},
+                         const std::string& screen = "1280x800");
 
-/// The xvfb-run command line that starts `cariesim` (the words of the arguments follow it).
-std::vector<std::string> xvfb_cariesim();
+/// The xvfb-run command line that starts `cariesim` (the words of the arguments follow it) on a
+/// virtual screen of `screen` ("WIDTHxHEIGHT", px).
+std::vector<std::string> xvfb_cariesim(const std::string& screen = "1280x800");
 
 /// An RGB image read from a PNG (data null when unreadable).
 struct Image {

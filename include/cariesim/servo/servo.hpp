@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "cariesim/common/lockfree.hpp"
 #include "cariesim/device/device.hpp"
@@ -93,6 +94,38 @@ inline constexpr double kDefaultSpinUs = 150.0;
 /// µs, the longest spin accepted (the effective one is also at most half the period).
 inline constexpr double kMaxSpinUs = 10000.0;
 
+/// The graphic tool taken by the servo thread at given servo times: a window playing an answers
+/// file marks at each mark's servo time with the tip of that cycle, as `cariesim study run` takes it
+/// from the recording (docs/viewer.md "Automation"), however late the window draws.
+///
+/// The times are fixed at construction (the storage too): the servo thread fills the entries in time
+/// order (take(), no allocation, no lock) and publishes how many with release; the owner reads an
+/// entry once taken() passed it.
+class TimedCapture {
+ public:
+  /// One capture: the first cycle at or after its time.
+  struct Entry {
+    double t = 0.0;  ///< s, servo time of the cycle that took it
+    Pose graphic;    ///< the graphic tool then (its origin is the tip)
+    int contacts = 0;
+  };
+  /// `times` (s, servo time) in any order; they are taken in ascending order (times()).
+  explicit TimedCapture(std::vector<double> times);
+  /// Servo thread: takes every time at or before `t` (s) not taken yet.
+  void take(double t, const Pose& graphic, int contacts) noexcept;
+  /// How many times (in ascending order) are taken; any thread.
+  [[nodiscard]] std::size_t taken() const { return taken_.load(std::memory_order_acquire); }
+  /// The times, ascending.
+  [[nodiscard]] const std::vector<double>& times() const { return times_; }
+  /// Entry i (i < taken()).
+  [[nodiscard]] const Entry& entry(std::size_t i) const { return entries_[i]; }
+
+ private:
+  std::vector<double> times_;
+  std::vector<Entry> entries_;
+  std::atomic<std::size_t> taken_{0};
+};
+
 struct ServoOptions {
   double rate_hz = 1000.0;                   ///< Hz, 1 kHz default, up to 10 kHz
   bool realtime = true;                      ///< ask for SCHED_FIFO (reports when refused)
@@ -110,6 +143,7 @@ struct ServoOptions {
   bool standby = true;
   SafetyParams safety;                       ///< ramp and global force scale
   SpscQueue<ServoSample>* record = nullptr;  ///< where samples go (the recorder's queue), optional
+  TimedCapture* capture = nullptr;           ///< poses to take at given servo times, optional
   /// The Params to start from (e.g. a restarted session's, with what the user tuned); their material
   /// count must be the model's. Default: initial_params(model, device limits).
   std::optional<Params> params;

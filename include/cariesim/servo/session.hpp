@@ -49,6 +49,9 @@ struct SessionOptions {
   SafetyParams safety;
   std::string record;           ///< SQLite file to record the session into; empty: no record
   RecorderOptions recorder;     ///< how to record (overwrite, batch length, thresholds)
+  /// Poses the servo thread takes at given servo times (ServoOptions::capture); it must outlive the
+  /// session. Optional.
+  TimedCapture* capture = nullptr;
 };
 
 class Session {

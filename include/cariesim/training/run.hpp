@@ -165,6 +165,10 @@ class StudyRun {
   /// merging pending results. A lock held by another program is waited for (RunOptions::lock_wait).
   /// Throws cariesim::Error when finished, already in a trial, or the database cannot be written.
   const TrialSetup& begin_trial();
+  /// The setup trial `index` gets when it begins (make_trial from its seed, with the run's
+  /// overrides), made without touching the database: e.g. to build the next trial's scene while the
+  /// current one runs. Throws cariesim::Error as make_trial does.
+  [[nodiscard]] TrialSetup trial_setup(int index) const;
   /// The current trial's setup (valid after begin_trial()).
   [[nodiscard]] const TrialSetup& setup() const { return setup_; }
   /// Where the current trial's recording should go (absolute; its folder is created by
