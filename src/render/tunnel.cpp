@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "cariesim/render/step.hpp"
 #include "render/state_impl.hpp"
@@ -35,6 +36,7 @@ namespace {
 
 constexpr double kExitDepth = 1e-6;    // mm: at this depth the probe is out
 constexpr double kBottomRadius = 0.1;  // mm: display radius of the tunnel spheres
+constexpr double kSurfaceReach = 3.0;  // mm: deepest the apex may have sunk before it breaks in
 
 // Distance along n from p at which the ray leaves the lesion volume (sphere tracing its SDF).
 double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
@@ -58,6 +60,26 @@ double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
       hi = mid;
   }
   return d > 0.0 ? lo : t;
+}
+
+// How deep `apex` lies below the lesion's surface along the tunnel axis n (mm): the distance back
+// along -n to where the ray leaves the caries tree (the lesion's part of the tooth, from the tooth's
+// surface down). Sphere tracing from `reach` mm outside toward the apex: outside a union of spheres
+// the smallest leaf gap is the exact distance to it, so each step lands on or before the surface.
+// NaN when the query ran out of work budget; 0 when the apex is not inside the caries.
+double surface_depth(const CollisionObject& caries, const Vec3& apex, const Vec3& n, double reach,
+                     WorkBudget* budget) {
+  constexpr double kHit = 1e-4;  // mm
+  const Vec3 start = apex - n * reach;
+  double t = 0.0;
+  for (int i = 0; i < 64 && t < reach; ++i) {
+    const double gap = sphere_closest(start + n * t, 0.0, caries, reach - t + kHit, budget);
+    if (gap == -std::numeric_limits<double>::infinity()) return std::nan("");
+    if (!std::isfinite(gap)) return 0.0;  // no caries before the apex
+    if (gap < kHit) return std::max(reach - t, 0.0);
+    t += gap;
+  }
+  return 0.0;
 }
 
 }  // namespace
@@ -118,7 +140,11 @@ bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const 
   t.n = n;
   t.q_lock = s.graphic.q;
   t.depth = 0.0;
-  t.depth0 = s.tip.sink;
+  // Depth is counted from the lesion's surface along the axis (docs/penetration.md "Depth"): the
+  // apex has already sunk into the soft surface before it breaks in.
+  const double sunk = surface_depth(m.objects[lesion.object], s.graphic.p + n * m.tool.tip_radius, n,
+                                    kSurfaceReach, &s.collision.budget);
+  t.depth0 = std::isfinite(sunk) ? sunk : s.tip.sink;
   t.lesion = s.tip.lesion;
   t.object = lesion.object;
   t.material = s.tip.material;
