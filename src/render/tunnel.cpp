@@ -19,6 +19,10 @@
 // plays over several cycles instead of as one knock. Extraction mirrors the paper (eqs. 8-9): the
 // probe stays until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state
 // returns to sliding and the force drops.
+// Engagement (docs/penetration.md "Engagement"): in the sliding state a tip pressed on caries along
+// its axis catches: it is held on its axis line and in its orientation (the tunnel's lateral and
+// rotation rows) until eq. 4 opens the tunnel there, so it neither skates across soft caries nor
+// slides or pivots off a neighbour that holds the shank.
 // The tunnel row builder owns the tunnel rows' key space (tunnel_key).
 #include "render/tunnel.hpp"
 
@@ -124,6 +128,60 @@ void build_tunnel_rows(const TunnelLimits& limits, const Pose& g0, RowSet& rows)
   add(hold, RowKind::TunnelHold, TunnelRow::Hold);
 }
 
+bool update_engagement(const Params& p, StateImpl& s, const Pose& haptic) {
+  Engagement& e = s.engaged;
+  if (s.tip.lesion < 0) {
+    e.last_hand = haptic.p;
+    return e.active = false;
+  }
+  // Eqs. 3-4's press along the tip axis, as for entry.
+  const Material& mat = p.materials[s.tip.material];
+  const Vec3 n = -(s.graphic.q * Vec3::UnitZ());
+  const Vec3 pull = haptic.p - s.graphic.p;
+  const double f_p = mat.k_e * std::max(pull.dot(n), 0.0);
+  // The hand's motion this cycle: a press moves along the axis, a slide across it.
+  const Vec3 moved = haptic.p - e.last_hand;
+  e.last_hand = haptic.p;
+  const double across = (moved - n * moved.dot(n)).norm();
+  const bool sliding = across > kSlideMotion && across > kSlideSlope * std::abs(moved.dot(n));
+  // Catch on a press, let go when the press is gone or the hand slides.
+  if (!e.active && f_p > kEngageShare * mat.f_p_star && !sliding) {
+    e.active = true;
+    e.point = s.graphic.p;
+    e.n = n;
+    e.q = s.graphic.q;
+  } else if (e.active && (!(f_p > kReleaseShare * mat.f_p_star) || sliding)) {
+    e.active = false;
+  }
+  return e.active;
+}
+
+void build_engagement_rows(const Engagement& e, const Pose& g0, RowSet& rows) {
+  // The tip stays on its axis line (as the tunnel's four side spheres, Fig. 5).
+  const Vec3 axis_point = e.point + e.n * (g0.p - e.point).dot(e.n);
+  Vec3 side[2];
+  tangent_basis(e.n, side[0], side[1]);
+  for (int j = 0; j < 2; ++j) {
+    QpRow row;
+    row.a.head<3>() = side[j];
+    row.b = side[j].dot(axis_point - g0.p);
+    row.equality = true;
+    row.key = tunnel_key(j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
+    rows.add(row, RowMeta{RowKind::TunnelLateral, -1, -1, -1});
+  }
+  // The orientation held where the tip caught (as eq. 7's lock).
+  const Vec3 back = rotation_vector(e.q * g0.q.conjugate());
+  constexpr TunnelRow kRotation[3] = {TunnelRow::Rotation0, TunnelRow::Rotation1, TunnelRow::Rotation2};
+  for (int j = 0; j < 3; ++j) {
+    QpRow row;
+    row.a[3 + j] = 1.0;
+    row.b = back[j];
+    row.equality = true;
+    row.key = tunnel_key(kRotation[j]);
+    rows.add(row, RowMeta{RowKind::TunnelRotation, -1, -1, -1});
+  }
+}
+
 bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const Pose& haptic) {
   if (s.tip.lesion < 0) return false;
   const Material& mat = p.materials[s.tip.material];
@@ -151,6 +209,7 @@ bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const 
   // The lesion's bottom is a hard stop: the tip's apex may travel until it leaves the lesion volume.
   t.max_depth = std::max(0.0, lesion_exit(lesion.shape, t.entry, n) - m.tool.tip_radius);
   release_anchors(s.anchors);
+  s.engaged.active = false;
   s.interaction = InteractionState::Inserting;
   return true;
 }
