@@ -34,6 +34,7 @@ struct StateImpl {
   InputGuard input;  ///< judges each reading (device/input_guard.hpp); holds the haptic pose used last
   InteractionState interaction = InteractionState::Free;
   detail::Tunnel tunnel;
+  detail::Engagement engaged;  ///< the tip caught on caries before breaking in (tunnel.hpp)
   detail::Anchors anchors{};
   TipContact tip;
   uint64_t steps = 0;

@@ -125,6 +125,13 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
       std::clamp(std::max(2.0 * s.last_motion + 0.005, s.lag_motion), 0.01, m.settings.trust_step);
   req.rot_bound =
       std::clamp(std::max(2.0 * s.last_rotation + 1e-4, s.lag_rotation), 1e-3, m.settings.trust_rotation);
+  // A tip pressed on caries catches (docs/penetration.md "Engagement"): it holds its place sideways,
+  // its lateral rows standing in for the friction rows.
+  if (update_engagement(p, s, haptic)) {
+    release_anchors(s.anchors);
+    req.friction = false;
+    req.engaged = &s.engaged;
+  }
   Pose g = s.graphic, g0 = s.graphic;  // g0: where the last sub-step started (its solve's configuration)
   bool reached = false;
   int k = 0;

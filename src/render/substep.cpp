@@ -48,6 +48,7 @@ Vec6 solve_once(const Model& m, const Params& p, StateImpl& s, const Pose& g0, c
   trace.contacts = build_contact_rows(m, p, s.pairs, s.regions, req.hold_only, s.contact_rows, s.rows);
   if (req.friction) build_friction_rows(s.anchors, s.regions, g0, s.rows);
   if (req.tunnel != nullptr) build_tunnel_rows(*req.tunnel, g0, s.rows);
+  if (req.engaged != nullptr) build_engagement_rows(*req.engaged, g0, s.rows);
   if (s.rows.full) trace.flags |= kFlagQpRowsFull;
   solve_rows(s.rows, s.regions, s.solver, s.solution);
   trace.flags |= s.solution.flags;

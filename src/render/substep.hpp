@@ -9,6 +9,7 @@
 namespace cariesim::detail {
 
 struct TunnelLimits;  // tunnel.hpp
+struct Engagement;    // tunnel.hpp
 
 /// Work units (WorkBudget) of one solve: regions, anchors, rows and the QP (about 3.3 us against 12 ns
 /// a node pair, fitted on step_bench's trajectories).
@@ -24,6 +25,7 @@ struct SubstepRequest {
   bool friction = true;                  ///< anchors, stick rows and the cone
   bool hold_only = false;                ///< see build_contact_rows
   const TunnelLimits* tunnel = nullptr;  ///< the tunnel's rows, when penetrating
+  const Engagement* engaged = nullptr;   ///< the engaged tip's lateral rows, when sliding engaged
 };
 /// A sub-step's first solve's motion before it was shortened onto the bounds.
 struct SubstepMotion {

@@ -19,11 +19,16 @@
 // plays over several cycles instead of as one knock. Extraction mirrors the paper (eqs. 8-9): the
 // probe stays until |F_e| > F_e*, then slides out along the shortening tunnel; at depth 0 the state
 // returns to sliding and the force drops.
+// Engagement (docs/penetration.md "Engagement"): in the sliding state a tip pressed on caries along
+// its axis catches: it is held on its axis line and in its orientation (the tunnel's lateral and
+// rotation rows) until eq. 4 opens the tunnel there, so it neither skates across soft caries nor
+// slides or pivots off a neighbour that holds the shank.
 // The tunnel row builder owns the tunnel rows' key space (tunnel_key).
 #include "render/tunnel.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "cariesim/render/step.hpp"
 #include "render/state_impl.hpp"
@@ -35,6 +40,7 @@ namespace {
 
 constexpr double kExitDepth = 1e-6;    // mm: at this depth the probe is out
 constexpr double kBottomRadius = 0.1;  // mm: display radius of the tunnel spheres
+constexpr double kSurfaceReach = 3.0;  // mm: deepest the apex may have sunk before it breaks in
 
 // Distance along n from p at which the ray leaves the lesion volume (sphere tracing its SDF).
 double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
@@ -58,6 +64,26 @@ double lesion_exit(const LesionShape& shape, const Vec3& p, const Vec3& n) {
       hi = mid;
   }
   return d > 0.0 ? lo : t;
+}
+
+// How deep `apex` lies below the lesion's surface along the tunnel axis n (mm): the distance back
+// along -n to where the ray leaves the caries tree (the lesion's part of the tooth, from the tooth's
+// surface down). Sphere tracing from `reach` mm outside toward the apex: outside a union of spheres
+// the smallest leaf gap is the exact distance to it, so each step lands on or before the surface.
+// NaN when the query ran out of work budget; 0 when the apex is not inside the caries.
+double surface_depth(const CollisionObject& caries, const Vec3& apex, const Vec3& n, double reach,
+                     WorkBudget* budget) {
+  constexpr double kHit = 1e-4;  // mm
+  const Vec3 start = apex - n * reach;
+  double t = 0.0;
+  for (int i = 0; i < 64 && t < reach; ++i) {
+    const double gap = sphere_closest(start + n * t, 0.0, caries, reach - t + kHit, budget);
+    if (gap == -std::numeric_limits<double>::infinity()) return std::nan("");
+    if (!std::isfinite(gap)) return 0.0;  // no caries before the apex
+    if (gap < kHit) return std::max(reach - t, 0.0);
+    t += gap;
+  }
+  return 0.0;
 }
 
 }  // namespace
@@ -102,6 +128,60 @@ void build_tunnel_rows(const TunnelLimits& limits, const Pose& g0, RowSet& rows)
   add(hold, RowKind::TunnelHold, TunnelRow::Hold);
 }
 
+bool update_engagement(const Params& p, StateImpl& s, const Pose& haptic) {
+  Engagement& e = s.engaged;
+  if (s.tip.lesion < 0) {
+    e.last_hand = haptic.p;
+    return e.active = false;
+  }
+  // Eqs. 3-4's press along the tip axis, as for entry.
+  const Material& mat = p.materials[s.tip.material];
+  const Vec3 n = -(s.graphic.q * Vec3::UnitZ());
+  const Vec3 pull = haptic.p - s.graphic.p;
+  const double f_p = mat.k_e * std::max(pull.dot(n), 0.0);
+  // The hand's motion this cycle: a press moves along the axis, a slide across it.
+  const Vec3 moved = haptic.p - e.last_hand;
+  e.last_hand = haptic.p;
+  const double across = (moved - n * moved.dot(n)).norm();
+  const bool sliding = across > kSlideMotion && across > kSlideSlope * std::abs(moved.dot(n));
+  // Catch on a press, let go when the press is gone or the hand slides.
+  if (!e.active && f_p > kEngageShare * mat.f_p_star && !sliding) {
+    e.active = true;
+    e.point = s.graphic.p;
+    e.n = n;
+    e.q = s.graphic.q;
+  } else if (e.active && (!(f_p > kReleaseShare * mat.f_p_star) || sliding)) {
+    e.active = false;
+  }
+  return e.active;
+}
+
+void build_engagement_rows(const Engagement& e, const Pose& g0, RowSet& rows) {
+  // The tip stays on its axis line (as the tunnel's four side spheres, Fig. 5).
+  const Vec3 axis_point = e.point + e.n * (g0.p - e.point).dot(e.n);
+  Vec3 side[2];
+  tangent_basis(e.n, side[0], side[1]);
+  for (int j = 0; j < 2; ++j) {
+    QpRow row;
+    row.a.head<3>() = side[j];
+    row.b = side[j].dot(axis_point - g0.p);
+    row.equality = true;
+    row.key = tunnel_key(j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
+    rows.add(row, RowMeta{RowKind::TunnelLateral, -1, -1, -1});
+  }
+  // The orientation held where the tip caught (as eq. 7's lock).
+  const Vec3 back = rotation_vector(e.q * g0.q.conjugate());
+  constexpr TunnelRow kRotation[3] = {TunnelRow::Rotation0, TunnelRow::Rotation1, TunnelRow::Rotation2};
+  for (int j = 0; j < 3; ++j) {
+    QpRow row;
+    row.a[3 + j] = 1.0;
+    row.b = back[j];
+    row.equality = true;
+    row.key = tunnel_key(kRotation[j]);
+    rows.add(row, RowMeta{RowKind::TunnelRotation, -1, -1, -1});
+  }
+}
+
 bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const Pose& haptic) {
   if (s.tip.lesion < 0) return false;
   const Material& mat = p.materials[s.tip.material];
@@ -118,13 +198,18 @@ bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const 
   t.n = n;
   t.q_lock = s.graphic.q;
   t.depth = 0.0;
-  t.depth0 = s.tip.sink;
+  // Depth is counted from the lesion's surface along the axis (docs/penetration.md "Depth"): the
+  // apex has already sunk into the soft surface before it breaks in.
+  const double sunk = surface_depth(m.objects[lesion.object], s.graphic.p + n * m.tool.tip_radius, n,
+                                    kSurfaceReach, &s.collision.budget);
+  t.depth0 = std::isfinite(sunk) ? sunk : s.tip.sink;
   t.lesion = s.tip.lesion;
   t.object = lesion.object;
   t.material = s.tip.material;
   // The lesion's bottom is a hard stop: the tip's apex may travel until it leaves the lesion volume.
   t.max_depth = std::max(0.0, lesion_exit(lesion.shape, t.entry, n) - m.tool.tip_radius);
   release_anchors(s.anchors);
+  s.engaged.active = false;
   s.interaction = InteractionState::Inserting;
   return true;
 }

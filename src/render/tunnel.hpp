@@ -23,6 +23,34 @@ struct Tunnel {
   uint16_t material = 0;
 };
 
+/// The tip engaged on a lesion's surface before it breaks in (docs/penetration.md "Engagement"): once
+/// the press along the tip axis (eqs. 3-4's |F_p|) exceeds kEngageShare of F_p* on caries, the sharp
+/// tip catches where it is: it may still sink or rise along its axis n, but not slide sideways, so
+/// pressing harder breaks in there instead of skating across the soft surface; the tool's
+/// orientation is held as in the tunnel, so a shank resting on a neighbour cannot pivot off it.
+struct Engagement {
+  bool active = false;
+  Vec3 point = Vec3::Zero();      ///< mm, world, tip centre when the tip caught
+  Vec3 n = Vec3::UnitZ();         ///< the tip axis then (unit, into the tissue)
+  Quat q = Quat::Identity();      ///< the tool's orientation then, held while caught (as eq. 7's lock)
+  Vec3 last_hand = Vec3::Zero();  ///< mm, world, the hand's position in the last sliding cycle
+};
+/// The tip catches when the press along its axis exceeds kEngageShare of F_p*; it lets go when the
+/// press falls below kReleaseShare of F_p* or the hand slides (N/N).
+inline constexpr double kEngageShare = 0.02;
+inline constexpr double kReleaseShare = 0.01;
+/// A hand moving across the axis by more than kSlideMotion (mm per cycle) and more than kSlideSlope
+/// times along it (tan 20 deg: a press wavers less) slides.
+inline constexpr double kSlideMotion = 1e-4;
+inline constexpr double kSlideSlope = 0.364;
+inline constexpr double kReleaseSideways = 0.5;
+/// The sliding state's engagement for this cycle (the tip's caries contact of the last cycle, the
+/// press toward `haptic`): catches, holds or lets go. True when engaged.
+bool update_engagement(const Params& p, StateImpl& s, const Pose& haptic);
+/// The engaged tip's rows (the tunnel's lateral and rotation keys: never both in one problem): the
+/// tip stays on the line through `e.point` along `e.n`, the orientation at `e.q`.
+void build_engagement_rows(const Engagement& e, const Pose& g0, RowSet& rows);
+
 /// The tunnel's limits for one cycle: the tip's travel along n stays in [lower, upper] (mm).
 struct TunnelLimits {
   const Tunnel* tunnel = nullptr;
