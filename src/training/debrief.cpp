@@ -19,6 +19,7 @@
 #include "cariesim/io/sqlite.hpp"
 #include "cariesim/io/yaml.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "cariesim/spheretree/lesion.hpp"
 #include "training/study_schema.hpp"
 
 namespace cariesim::training {
@@ -109,7 +110,7 @@ DiagnosisAnswers parse_diagnosis_answers(std::string_view json, const std::strin
     r.fail(lesions, "lesions", fmt::format("more than {} lesions", kMaxLesions));
   for (std::size_t i = 0; i < lesions.size(); ++i) {
     const io::Fields l(r, lesions[i], io::indexed("lesions", i),
-                       {"site", "severity", "size", "width", "depth"});
+                       {"site", "severity", "size", "width", "depth", "shape", "offset"});
     CaseLesion c;
     c.site = r.text(l.require("site"), l.sub("site"));
     if (!parse_grade(r.text(l.require("severity"), l.sub("severity")), c.severity))
@@ -117,6 +118,20 @@ DiagnosisAnswers parse_diagnosis_answers(std::string_view json, const std::strin
     c.size = r.number_in(l.require("size"), l.sub("size"), 0.0, 1000.0, "mm");
     c.width = r.number_in(l.require("width"), l.sub("width"), 0.0, 1000.0, "mm");
     c.depth = r.number_in(l.require("depth"), l.sub("depth"), 0.0, 1000.0, "mm");
+    // The drawn shape and place in the site's region (written since sites became regions; older rows
+    // have neither, and then the defaults stand).
+    if (const YAML::Node n = l.get("shape"); n.IsDefined()) {
+      out.placed = true;
+      if (!parse_lesion_kind(r.text(n, l.sub("shape")), c.shape))
+        r.fail(n, l.sub("shape"), "expected disk, inverted-cone, stripe or ellipsoid");
+    }
+    if (const YAML::Node n = l.get("offset"); n.IsDefined()) {
+      out.placed = true;
+      r.require_sequence(n, l.sub("offset"));
+      if (n.size() != 2) r.fail(n, l.sub("offset"), "expected [along, across] (mm)");
+      for (std::size_t k = 0; k < 2; ++k)
+        c.offset[k] = r.number_in(n[k], io::indexed(l.sub("offset"), k), -1000.0, 1000.0, "mm");
+    }
     out.lesions.push_back(c);
   }
   const YAML::Node marks = f.require("marks");
@@ -368,7 +383,10 @@ RebuiltTrial rebuild_trial(const fs::path& database, const std::string& particip
     for (std::size_t i = 0; same && i < stored.size(); ++i)
       same = stored[i].site == rebuilt[i].site && stored[i].severity == rebuilt[i].severity &&
              same_number(stored[i].size, rebuilt[i].size) && same_number(stored[i].width, rebuilt[i].width) &&
-             same_number(stored[i].depth, rebuilt[i].depth);
+             same_number(stored[i].depth, rebuilt[i].depth) &&
+             (!t.answers.placed || (stored[i].shape == rebuilt[i].shape &&
+                                    same_number(stored[i].offset[0], rebuilt[i].offset[0]) &&
+                                    same_number(stored[i].offset[1], rebuilt[i].offset[1])));
     if (!same)
       throw Error(
           fmt::format("{}: the stored case ({}) is not the case seed {} rebuilds ({}): the row was "

@@ -110,6 +110,18 @@ TEST(Rebuild, ATamperedRowIsRefusedNamingIt) {
   test::query(db, "UPDATE trials SET seed = seed - 1 WHERE id = " + row);
   EXPECT_NO_THROW((void)rebuild_trial(db, "P01", 2));
 
+  // The stored place of a lesion moved 0.01 mm within its site's region: not the drawn case either.
+  auto shift = [&](const std::string& sign) {
+    return "UPDATE trials SET answers = json_set(answers, '$.lesions[0].offset[0]', json_extract(answers, "
+           "'$.lesions[0].offset[0]') " +
+           sign + " 0.01) WHERE id = " + row;
+  };
+  test::query(db, shift("+"));
+  const std::string moved = error_of([&] { (void)rebuild_trial(db, "P01", 2); });
+  EXPECT_NE(moved.find("is not the case seed"), std::string::npos) << moved;
+  test::query(db, shift("-"));
+  EXPECT_NO_THROW((void)rebuild_trial(db, "P01", 2));
+
   // The study's text edited (a longer time limit) without its hash.
   test::query(db, "UPDATE studies SET yaml = replace(yaml, 'time_limit: 10.0', 'time_limit: 99.0')");
   const std::string text = error_of([&] { (void)rebuild_trial(db, "P01", 2); });

@@ -42,6 +42,7 @@ struct DiagnosisAnswers {
   std::vector<CaseLesion> lesions;  ///< the case as the trial ran it
   std::vector<JudgedMark> marks;    ///< in the order made
   std::optional<double> ended_at;   ///< s, servo time of End case; unset: the time limit or path end
+  bool placed = false;  ///< the lesions' shape and offset were stored (rows since sites are regions)
 };
 
 /// Reads a diagnosis trial's answers JSON (trials.answers or TrialResult::answers_json). `where`
