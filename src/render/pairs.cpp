@@ -92,6 +92,7 @@ PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g
   // Coincident centres: push along the tool's own axis, any finite direction will do.
   out.normal = dist > 1e-12 ? Vec3(d / dist) : Vec3(g.z_axis());
   out.gap = dist - r_t - r_o;
+  out.sphere_gap = out.gap;
 
   // A rigid leaf's surface normal for force shading: its tangent that faces the tool, leaned toward
   // the sphere normal as the tool moves onto the sphere's side (a leaf at an edge or a cusp tip is
@@ -118,6 +119,7 @@ void shade_rigid_normals(const Model& m, PairSet& pairs) {
   if (!m.settings.force_shading) return;
   // The shaded pairs by (tool leaf, object), then each group's deepest gap.
   std::array<uint32_t, kMaxPairs> order;
+  std::array<Vec3, kMaxPairs> shaded;  // one group's shaded normals, by position in `order`
   int n = 0;
   for (int i = 0; i < pairs.count; ++i)
     if (!pairs.refs[i].forced && pairs.geometry[i].surface.squaredNorm() > 0.0)
@@ -132,19 +134,34 @@ void shade_rigid_normals(const Model& m, PairSet& pairs) {
     int end = begin + 1;
     while (end < n && group(order[end]) == group(order[begin])) ++end;
     double deepest = std::numeric_limits<double>::infinity();
-    for (int a = begin; a < end; ++a) deepest = std::min(deepest, pairs.geometry[order[a]].gap);
-    // Each pair's normal: the weighted surface normals of the pairs near the deepest that face its way.
+    for (int a = begin; a < end; ++a) deepest = std::min(deepest, pairs.geometry[order[a]].sphere_gap);
+    // Each pair's normal: the weighted surface normals of the pairs near the deepest that face its way
+    // (weighed by the sphere gaps, all of them before any gap changes below).
     for (int a = begin; a < end; ++a) {
-      PairGeometry& geo = pairs.geometry[order[a]];
+      const PairGeometry& geo = pairs.geometry[order[a]];
       Vec3 sum = Vec3::Zero();
       for (int b = begin; b < end; ++b) {
         const PairGeometry& other = pairs.geometry[order[b]];
-        const double excess = std::max(0.0, 1.0 - (other.gap - deepest) / width);
+        const double excess = std::max(0.0, 1.0 - (other.sphere_gap - deepest) / width);
         const double facing = std::clamp(
             (geo.surface.dot(other.surface) - kShadeApartCos) / (kShadeAlikeCos - kShadeApartCos), 0.0, 1.0);
         sum += excess * excess * facing * other.surface;
       }
-      geo.normal = sum.norm() > 1e-9 ? Vec3(sum.normalized()) : geo.surface;
+      shaded[a] = sum.norm() > 1e-9 ? Vec3(sum.normalized()) : geo.surface;
+    }
+    // The gap along the shaded normal: how far the tool sphere moves along it to touch the object
+    // sphere (or to leave it), so that the row's linearisation is exact along its own normal. Where
+    // that line misses the sphere, the sphere gap (shorter) stays.
+    for (int a = begin; a < end; ++a) {
+      PairGeometry& geo = pairs.geometry[order[a]];
+      const PairRef& ref = pairs.refs[order[a]];
+      const Vec3 d =
+          pairs.at.p + geo.lever - m.objects[ref.object].tree.nodes[ref.object_node].center.cast<double>();
+      const double reach = d.norm() - geo.sphere_gap;  // mm, r_t + r_o
+      const double along = d.dot(shaded[a]);
+      const double disc = along * along - d.squaredNorm() + reach * reach;
+      geo.normal = shaded[a];
+      geo.gap = disc >= 0.0 ? along - std::sqrt(disc) : geo.sphere_gap;
     }
     begin = end;
   }

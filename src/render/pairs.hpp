@@ -48,6 +48,8 @@ struct PairGeometry {
   /// tool, leaned toward the sphere normal where the tool touches the sphere's side), which
   /// shade_rigid_normals blends into `normal`; zero otherwise.
   Vec3 surface = Vec3::Zero();
+  /// mm: with a surface normal, the sphere pair's own gap (`gap` is then taken along the shaded normal)
+  double sphere_gap = 0.0;
 };
 
 /// The collision stage's output: the pairs the rows of one sub-step are made of, each with its
