@@ -190,18 +190,12 @@ EnamelSlide enamel_slide(const Model& m, const Params& params, double rate_hz) {
   EnamelSlide out;
   out.max_rigid_penetration = max_rigid_penetration(m, samples);
   // The force in the scan's tangent plane at the graphic tip, along and across the slide (+y laid
-  // into the plane), by the graphic tip's path length.
-  double s = 0.0;
-  Vec3 last = Vec3::Zero();
-  bool started = false;
+  // into the plane), by how far along the slide (world y) the graphic tip is.
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const SimSample& sample = samples[i];
-    if (sample.t < slide_start) continue;
-    const Vec3 g = sample.out.graphic.p;
-    if (started) s += (g - last).norm();
-    started = true;
-    last = g;
     if (sample.t < slide_start + kSettle) continue;
+    const Vec3 g = sample.out.graphic.p;
+    const double s = g.y() - points.front().y();  // mm along the slide (world y)
     Vec3 point, n;
     surface.nearest(g, &point, &n);
     const Vec3 f = sample.out.force;

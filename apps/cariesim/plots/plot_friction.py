@@ -44,7 +44,7 @@ if os.path.exists(path):
         ax.set_title(label, fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, loc="upper right")
-    axes[-1].set_xlabel("graphic tip's path along the slide (mm)")
+    axes[-1].set_xlabel("graphic tip along the slide (mm)")
     f.suptitle("Frictionless scanned enamel (46 buccal), 0.6 N, 5 mm/s: tangential force")
     f.tight_layout()
     f.savefig(os.path.join(d, "enamel_ripple.png"), dpi=120)

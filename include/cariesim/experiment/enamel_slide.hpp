@@ -18,7 +18,7 @@ inline constexpr double kEnamelRippleWindow = 0.5;  ///< mm of slide the ripple 
 
 /// The force along the slide, one entry per servo step of the slide's measured part.
 struct EnamelSlide {
-  std::vector<double> s;        ///< mm, the graphic tip's path length from the slide's start
+  std::vector<double> s;        ///< mm, how far along the slide (world y) the graphic tip is
   std::vector<double> along;    ///< N, tangential force along the slide direction
   std::vector<double> across;   ///< N, tangential force across it (in the tangent plane)
   std::vector<double> normal;   ///< N, force along the scan's normal (the load)

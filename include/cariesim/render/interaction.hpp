@@ -31,8 +31,9 @@ constexpr bool penetrating(InteractionState s) {
   return s == InteractionState::Inserting || s == InteractionState::Extracting;
 }
 
-/// s: after the graphic tool caught up with the hand (kFlagCatchingUp), the force ramps in from zero
-/// over this time, so that a hand found deep in an object is not struck with the whole coupling force.
+/// s: when a run starts with the hand where the tool cannot be (inside an object), the tool starts at
+/// the home pose and the most force (torque) rendered rises from zero to the device's maximum over
+/// this time, so that a hand found deep in an object is not struck with the whole coupling force.
 inline constexpr double kCatchUpRamp = 0.2;
 
 /// Output flags (StepOutput::flags).
@@ -53,8 +54,8 @@ enum StepFlag : uint32_t {
   kFlagQpIterationLimit = 1u << 11,  ///< the QP ran out of dual steps; its last iterate was used
   kFlagWorkBudget = 1u << 12,        ///< the step's collision work budget ran out (StepSettings::work_budget)
   /// Free, but the graphic tool is still on its way to the hand (it started away from it, e.g. the
-  /// hand began inside a tooth, or an object held it while the hand passed through): no force is
-  /// rendered; once it has caught up the force ramps in over kCatchUpRamp (docs/step.md, "Catching up")
+  /// hand began inside a tooth, or an object held it while the hand passed through): the force is the
+  /// coupling's pull toward it, no contact (docs/step.md, "Catching up")
   kFlagCatchingUp = 1u << 13,
 };
 
