@@ -2,7 +2,7 @@
 // 5 mm/s, and the tangential force it renders (docs/step.md, "Force shading"). The hand path and the
 // tangent planes come from the scan itself: the display mesh's area-weighted vertex normals
 // interpolated at the nearest point, the smooth surface a dentist's explorer slides on.
-#include "cariesim/experiment/enamel_slide.hpp"
+#include "experiment/enamel_slide.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -6,11 +6,11 @@
 #include <cstdio>
 
 #include "cariesim/common/error.hpp"
-#include "cariesim/experiment/enamel_slide.hpp"
 #include "cariesim/render/material.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
+#include "experiment/enamel_slide.hpp"
 
 namespace cariesim::experiment {
 

@@ -3,7 +3,7 @@
 // surface. With the sphere pairs' own normals (force shading off, as before it existed) each inscribed
 // sphere tilted the contact normal and the tangential force rippled 0.1-0.2 N peak-to-peak over 0.5 mm,
 // more than the friction of a mild lesion at that load.
-#include "cariesim/experiment/enamel_slide.hpp"
+#include "experiment/enamel_slide.hpp"
 
 #include <gtest/gtest.h>
 
