@@ -212,7 +212,8 @@ void ViewerApp::panel_status() {
                                                        {kFlagForceClamped, "force clamped"},
                                                        {kFlagTorqueClamped, "torque clamped"},
                                                        {kFlagLagging, "lagging"},
-                                                       {kFlagBacktracked, "backtracked"}})
+                                                       {kFlagBacktracked, "backtracked"},
+                                                       {kFlagCatchingUp, "catching up (no force)"}})
                                     .c_str());
   ImGui::Text("safety: %s", flag_names(snapshot_.safety_flags, {{kSafetyRamping, "ramping in"},
                                                                 {kSafetyStale, "stale input"},

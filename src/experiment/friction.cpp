@@ -6,9 +6,11 @@
 #include <cstdio>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/render/material.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
 #include "experiment/common.hpp"
+#include "experiment/enamel_slide.hpp"
 
 namespace cariesim::experiment {
 
@@ -23,6 +25,54 @@ struct Run {
   const char* group;  // "static" (Fig. 10) or "dynamic" (Fig. 11)
   double mu_s, mu_d;
 };
+
+// How smooth scanned enamel feels (docs/step.md, "Force shading"): the frictionless slide over the
+// real arch's 46 (experiment/enamel_slide.hpp) with the rows' normals shaded and, for comparison, with
+// the sphere pairs' own normals; the tangential force of both along the slide goes to
+// enamel_slide.csv (the figure enamel_ripple.png), the ripple and the presets' friction at the same
+// load to the summary.
+void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, RunChecks& checks) {
+  say(options, "friction: building real-arch (the enamel slide)");
+  Model arch = build_model(load_scene("real-arch", options.overrides), options.build);
+  Params frictionless = arch.defaults;
+  for (Material& m : frictionless.materials) m.mu_s = m.mu_d = m.mu_s_along = m.mu_d_along = 0.0;
+  const bool shading = arch.settings.force_shading;
+  arch.settings.force_shading = false;
+  const EnamelSlide spheres = enamel_slide(arch, frictionless, options.rate_hz);
+  arch.settings.force_shading = shading;
+  const EnamelSlide shaded = enamel_slide(arch, frictionless, options.rate_hz);
+  checks.rigid_penetration =
+      std::max({checks.rigid_penetration, spheres.max_rigid_penetration, shaded.max_rigid_penetration});
+  std::vector<std::vector<double>> rows;
+  const auto add = [&](const EnamelSlide& slide, double shaded_flag) {
+    for (std::size_t i = 0; i < slide.s.size(); ++i)
+      rows.push_back({shaded_flag, slide.s[i], slide.along[i], slide.across[i], slide.normal[i]});
+  };
+  add(spheres, 0.0);
+  add(shaded, 1.0);
+  write_csv(options.out / "enamel_slide.csv", {"shaded", "s_mm", "f_along", "f_across", "f_normal"}, rows);
+  const double mild = caries_preset(CariesPreset::Mild).mu_d * kEnamelSlideLoad;
+  const double severe = caries_preset(CariesPreset::Severe).mu_d * kEnamelSlideLoad;
+  say(options, "friction: enamel slide ripple " + std::to_string(shaded.ripple) + " N (sphere normals " +
+                   std::to_string(spheres.ripple) + " N)");
+  summary.key("enamel_slide")
+      .begin_object()
+      .field("scene", "real-arch")
+      .field("surface", "tooth46 buccal, frictionless")
+      .field("normal_load_N", kEnamelSlideLoad)
+      .field("speed_mm_s", kEnamelSlideSpeed)
+      .field("window_mm", kEnamelRippleWindow)
+      .field("force_shading", shading)
+      .field("ripple_N", shaded.ripple)
+      .field("ripple_sphere_normals_N", spheres.ripple)
+      .field("mean_normal_N", shaded.mean_normal)
+      .field("free_steps", shaded.free_steps.size())
+      .field("mild_friction_N", mild)
+      .field("severe_friction_N", severe)
+      .field("mild_friction_over_ripple", shaded.ripple > 0.0 ? mild / shaded.ripple : 0.0)
+      .field("csv", "enamel_slide.csv")
+      .end_object();
+}
 
 }  // namespace
 
@@ -90,6 +140,7 @@ void run_friction(const ExperimentOptions& options, io::JsonWriter& summary) {
   }
   summary.end_array();
   summary.field("measured_from_s", slide_start + kSettle).field("measured_to_s", slide_end);
+  enamel_ripple(options, summary, checks);
   checks.write(summary);
 }
 

@@ -28,6 +28,7 @@ EventDeriver::EventDeriver(double soft_tissue_threshold, double period)
       {false, kFlagQpActiveSetFull, "engine", "qp_active_set_full", {}},
       {false, kFlagQpIterationLimit, "engine", "qp_iteration_limit", {}},
       {false, kFlagWorkBudget, "engine", "work_budget", {}},
+      {false, kFlagCatchingUp, "engine", "catching_up", {}},
   }};
 }
 

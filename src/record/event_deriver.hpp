@@ -73,7 +73,7 @@ class EventDeriver {
   uint32_t previous_buttons_ = 0;
   Episode penetration_;
   Episode soft_tissue_;
-  std::array<FlagTrack, 15> flags_;
+  std::array<FlagTrack, 16> flags_;
   std::vector<Change> pending_;  // instants and closed episodes, in order
 };
 

@@ -28,6 +28,9 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
   Vec3 torque = k_r * rotation_vector(s.graphic.q * haptic.q.conjugate());
   if (!force.allFinite()) force.setZero();
   if (!torque.allFinite()) torque.setZero();
+  // Catching up, and the ramp after it (docs/step.md, "Catching up"): at most the cap.
+  if (force.norm() > trace.force_cap) force *= std::max(trace.force_cap, 0.0) / force.norm();
+  if (torque.norm() > trace.torque_cap) torque *= std::max(trace.torque_cap, 0.0) / torque.norm();
   if (force.norm() > p.limits.max_force) {
     force *= p.limits.max_force / force.norm();
     out.flags |= kFlagForceClamped;

@@ -49,6 +49,7 @@
 // interaction state, tunnel, anchors, tip contact) and every stage's output, reserved once.
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "cariesim/render/step.hpp"
@@ -86,6 +87,10 @@ struct StepTrace {
   int substeps = 0;    ///< sub-steps taken
   int slips = 0;       ///< anchors that slipped
   int64_t work = 0;    ///< node pairs the collision queries visited
+  /// N and N·mm: the most force and torque rendered while catching up (0) and while they ramp in after
+  /// it (kCatchUpRamp); +infinity otherwise
+  double force_cap = std::numeric_limits<double>::infinity();
+  double torque_cap = std::numeric_limits<double>::infinity();
 };
 
 }  // namespace cariesim::detail

@@ -45,6 +45,10 @@ struct StateImpl {
   double lag_motion = 0.0;
   double lag_rotation = 0.0;
   detail::CarriedPairs carried;  ///< pairs that bore load at the last solve (CarriedPairs)
+  /// The force and torque rendered are capped at this share, 0-1, of the device's maximum: zero when
+  /// the state started the tool away from the hand (the start was not clear), then rising to 1 over
+  /// kCatchUpRamp.
+  double force_ramp = 1.0;
 
   // Model-derived constants.
   detail::ModelConstants constants;

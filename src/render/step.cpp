@@ -58,6 +58,7 @@ State::State(const Model& model, const Pose& start) : impl_(std::make_unique<Sta
     clear = !(closest(s.collision.placed, model.objects, s.constants.all_mask, 0.0).gap < 0.0);
   }
   s.graphic = clear ? pose : model.tool_home;
+  s.force_ramp = clear ? 1.0 : 0.0;  // placed away from the hand: the force ramps in (docs/step.md)
   s.input = InputGuard(model.settings.input, s.graphic);
 }
 
@@ -174,6 +175,9 @@ void sliding_step(const Model& m, const Params& p, StateImpl& s, const Pose& hap
   // New sticking contacts, and what the tip touches (for the penetration criteria next cycle).
   create_anchors(p, s.regions, s.solution, g, s.anchors);
   s.interaction = sense_tip(m, p, s, g) ? InteractionState::Sliding : InteractionState::Free;
+  // Touching nothing but still short of the hand: the tool is catching up in free space (it started
+  // away from the hand, or the hand passed through what held it); the force is the coupling's pull.
+  if (s.interaction == InteractionState::Free && !reached) trace.flags |= kFlagCatchingUp;
 }
 
 bool sense_tip(const Model& m, const Params& p, StateImpl& s, const Pose& g) {
@@ -244,6 +248,13 @@ StepOutput step(const Model& m, const Params& p, State& state, const HapticInput
   s.last_motion = moved.head<3>().norm();
   s.last_rotation = moved.tail<3>().norm();
   ++s.steps;
+  // After a start away from the hand the force ramps in over kCatchUpRamp (docs/step.md, "Catching
+  // up"): a hand found deep inside a tooth is not struck with the whole coupling at once.
+  s.force_ramp = std::min(1.0, s.force_ramp + dt / kCatchUpRamp);
+  if (s.force_ramp < 1.0) {
+    trace.force_cap = s.force_ramp * p.limits.max_force;
+    trace.torque_cap = s.force_ramp * p.limits.max_torque;
+  }
   trace.work = s.collision.budget.used;
   if (s.collision.budget.spent()) trace.flags |= kFlagWorkBudget;
   StepOutput out = make_output(m, p, s, haptic, trace, start);

@@ -133,12 +133,16 @@ TEST(CollectPairs, MeasuresEachPairOnceAtTheRowsConfiguration) {
   double nearest = std::numeric_limits<double>::infinity();
   for (int i = 0; i < s.pairs.count; ++i) {
     const PairGeometry again = measure_pair(m, s.constants, g, s.pairs.refs[i]);
-    EXPECT_EQ(s.pairs.geometry[i].gap, again.gap) << i;
-    EXPECT_EQ(s.pairs.geometry[i].normal, again.normal) << i;
+    // Force shading (docs/step.md): the slab's leaves all give the flat top's normal, which the row
+    // takes, with the gap along it; measure_pair gives the sphere pair's gap and its surface normal.
+    EXPECT_EQ(s.pairs.geometry[i].sphere_gap, again.gap) << i;
+    EXPECT_EQ(s.pairs.geometry[i].surface, again.surface) << i;
+    EXPECT_LT((s.pairs.geometry[i].normal - Vec3::UnitZ()).norm(), 1e-6) << i;
+    EXPECT_GE(s.pairs.geometry[i].gap, again.gap - 1e-12) << i;  // along the normal: no shorter
     EXPECT_FALSE(s.pairs.refs[i].forced);
     // Within the margin: the sub-step's reach plus the contact margin.
-    EXPECT_LT(s.pairs.geometry[i].gap, 0.05 + m.settings.contact_margin + 1e-9);
-    nearest = std::min(nearest, s.pairs.geometry[i].gap);
+    EXPECT_LT(s.pairs.geometry[i].sphere_gap, 0.05 + m.settings.contact_margin + 1e-9);
+    nearest = std::min(nearest, s.pairs.geometry[i].sphere_gap);
   }
   EXPECT_NEAR(nearest, 0.01, 1e-6);
 }

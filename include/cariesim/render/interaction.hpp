@@ -31,6 +31,11 @@ constexpr bool penetrating(InteractionState s) {
   return s == InteractionState::Inserting || s == InteractionState::Extracting;
 }
 
+/// s: when a run starts with the hand where the tool cannot be (inside an object), the tool starts at
+/// the home pose and the most force (torque) rendered rises from zero to the device's maximum over
+/// this time, so that a hand found deep in an object is not struck with the whole coupling force.
+inline constexpr double kCatchUpRamp = 0.2;
+
 /// Output flags (StepOutput::flags).
 enum StepFlag : uint32_t {
   kFlagNonFiniteInput = 1u << 0,     ///< the haptic pose was NaN/inf or not a unit quaternion; the
@@ -48,6 +53,10 @@ enum StepFlag : uint32_t {
   kFlagQpActiveSetFull = 1u << 10,   ///< more rows wanted to be active than the QP holds; last iterate used
   kFlagQpIterationLimit = 1u << 11,  ///< the QP ran out of dual steps; its last iterate was used
   kFlagWorkBudget = 1u << 12,        ///< the step's collision work budget ran out (StepSettings::work_budget)
+  /// Free, but the graphic tool is still on its way to the hand (it started away from it, e.g. the
+  /// hand began inside a tooth, or an object held it while the hand passed through): the force is the
+  /// coupling's pull toward it, no contact (docs/step.md, "Catching up")
+  kFlagCatchingUp = 1u << 13,
 };
 
 }  // namespace cariesim

@@ -1,0 +1,219 @@
+// A frictionless slide over the real arch's scanned enamel (tooth 46's buccal surface) at 0.6 N and
+// 5 mm/s, and the tangential force it renders (docs/step.md, "Force shading"). The hand path and the
+// tangent planes come from the scan itself: the display mesh's area-weighted vertex normals
+// interpolated at the nearest point, the smooth surface a dentist's explorer slides on.
+#include "experiment/enamel_slide.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "cariesim/common/error.hpp"
+#include "cariesim/geometry/ray_cast.hpp"
+#include "experiment/common.hpp"
+
+namespace cariesim::experiment {
+
+namespace {
+
+// The slide on 46's buccal surface (world mm, real-arch's frame): at height z = 4.75 from y = -3.5 to
+// y = 1.0 (mesial to distal), where the crown is smooth and convex (no groove, no lesion).
+constexpr double kSlideZ = 4.75;
+constexpr double kSlideFromY = -3.5;
+constexpr double kSlideToY = 1.0;
+constexpr double kWaypoint = 0.05;  // mm between the hand path's waypoints (along y)
+constexpr double kSettle = 0.1;     // s after the slide starts before the force is measured
+
+// The scan's surface near the slide: its triangles there and the vertex normals.
+struct Surface {
+  const TriangleMesh* mesh = nullptr;
+  std::vector<Vec3> vertex_normal;
+  std::vector<uint32_t> near;  // triangles with a vertex near the slide
+
+  // The point of the surface nearest `x` and the interpolated normal there (unit).
+  void nearest(const Vec3& x, Vec3* point, Vec3* normal) const {
+    double best = std::numeric_limits<double>::infinity();
+    for (const uint32_t t : near) {
+      const auto& tri = mesh->triangles[t];
+      const Vec3 a = mesh->vertices[tri[0]].cast<double>(), b = mesh->vertices[tri[1]].cast<double>(),
+                 c = mesh->vertices[tri[2]].cast<double>();
+      double u = 0.0, v = 0.0;  // barycentric weights of b and c
+      const Vec3 q = closest_on_triangle(x, a, b, c, &u, &v);
+      const double d = (q - x).squaredNorm();
+      if (d >= best) continue;
+      best = d;
+      *point = q;
+      *normal =
+          ((1.0 - u - v) * vertex_normal[tri[0]] + u * vertex_normal[tri[1]] + v * vertex_normal[tri[2]])
+              .normalized();
+    }
+  }
+
+  // Ericson, Real-Time Collision Detection §5.1.5: the point of triangle abc nearest p, with the
+  // barycentric weights of b (u) and c (v).
+  static Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double* u,
+                                  double* v) {
+    const Vec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    if (d1 <= 0 && d2 <= 0) return *u = 0, *v = 0, a;
+    const Vec3 bp = p - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    if (d3 >= 0 && d4 <= d3) return *u = 1, *v = 0, b;
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      const double w = d1 / (d1 - d3);
+      return *u = w, *v = 0, Vec3(a + w * ab);
+    }
+    const Vec3 cp = p - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    if (d6 >= 0 && d5 <= d6) return *u = 0, *v = 1, c;
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      const double w = d2 / (d2 - d6);
+      return *u = 0, *v = w, Vec3(a + w * ac);
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+      const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+      return *u = 1 - w, *v = w, Vec3(b + w * (c - b));
+    }
+    const double denom = 1.0 / (va + vb + vc);
+    *u = vb * denom;
+    *v = vc * denom;
+    return a + ab * *u + ac * *v;
+  }
+};
+
+// 46's scanned surface: the uncut mesh of its healthy part (an object cut by lesions keeps it as
+// `whole`), or its only part's mesh.
+const TriangleMesh& tooth46_mesh(const Model& m) {
+  for (const DisplayPart& part : m.display) {
+    if (part.object < 0 || static_cast<std::size_t>(part.object) >= m.objects.size()) continue;
+    if (m.objects[static_cast<std::size_t>(part.object)].name.rfind("tooth46", 0) != 0) continue;
+    if (!part.whole.triangles.empty()) return part.whole;
+    if (!part.cut) return part.mesh;
+  }
+  throw Error("enamel slide: the model has no tooth46 (the real-arch scene's) with a display mesh");
+}
+
+Surface slide_surface(const TriangleMesh& mesh) {
+  Surface s;
+  s.mesh = &mesh;
+  s.vertex_normal.assign(mesh.vertices.size(), Vec3::Zero());
+  for (const auto& tri : mesh.triangles) {
+    const Vec3 a = mesh.vertices[tri[0]].cast<double>(), b = mesh.vertices[tri[1]].cast<double>(),
+               c = mesh.vertices[tri[2]].cast<double>();
+    const Vec3 area_normal = (b - a).cross(c - a);  // twice the area, outward for the builder's winding
+    for (const uint32_t v : tri) s.vertex_normal[v] += area_normal;
+  }
+  for (Vec3& n : s.vertex_normal)
+    if (n.norm() > 0) n.normalize();
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (const uint32_t v : mesh.triangles[t]) {
+      const Vec3 p = mesh.vertices[v].cast<double>();
+      if (std::abs(p.z() - kSlideZ) < 2.0 && p.y() > kSlideFromY - 2.0 && p.y() < kSlideToY + 2.0) {
+        s.near.push_back(static_cast<uint32_t>(t));
+        break;
+      }
+    }
+  }
+  return s;
+}
+
+// The explorer's orientation for the slide: its tip segment (leaf 0 toward the leaves within 1 mm of
+// it) along 46's buccal normal at the slide's middle, the tip pointing into the tooth, turned about
+// that axis so that the handle rises (world +z) away from the gingiva.
+Quat slide_orientation(const Model& m, const Vec3& outward) {
+  const SphereTree& tool = m.tool.tree;
+  const Vec3 tip = tool.nodes[tool.leaf_nodes[0]].center.cast<double>();
+  Vec3 shank = Vec3::Zero(), far = tip;
+  for (const uint32_t node : tool.leaf_nodes) {
+    const Vec3 c = tool.nodes[node].center.cast<double>();
+    if ((c - tip).norm() < 1.0) shank += c - tip;
+    if ((c - tip).norm() > (far - tip).norm()) far = c;
+  }
+  const Quat onto = Quat::FromTwoVectors(shank.normalized(), outward.normalized());
+  Quat best = onto;
+  double highest = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 36; ++k) {
+    const Quat q = Quat(Eigen::AngleAxisd(k * 2.0 * std::numbers::pi / 36.0, outward.normalized())) * onto;
+    const double z = (q * (far - tip)).z();
+    if (z > highest) highest = z, best = q;
+  }
+  return best.normalized();
+}
+
+}  // namespace
+
+double window_ripple(const std::vector<double>& s, const std::vector<double>& v, double window) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < s.size() && i < v.size(); ++i) {
+    double lo = v[i], hi = v[i];
+    for (std::size_t j = i + 1; j < s.size() && j < v.size() && s[j] - s[i] <= window; ++j) {
+      lo = std::min(lo, v[j]);
+      hi = std::max(hi, v[j]);
+    }
+    worst = std::max(worst, hi - lo);
+  }
+  return worst;
+}
+
+EnamelSlide enamel_slide(const Model& m, const Params& params, double rate_hz) {
+  const TriangleMesh& mesh = tooth46_mesh(m);
+  const Surface surface = slide_surface(mesh);
+  const double r_tip = m.tool.tip_radius;
+  const double press = kEnamelSlideLoad / params.gains.k_trans;  // mm inside the surface
+
+  // The surface points of the slide: where the line along +x at (y, kSlideZ) enters the crown from
+  // the buccal side; the hand follows them `press` mm inside along the interpolated normal.
+  std::vector<Vec3> points, normals;
+  for (double y = kSlideFromY; y <= kSlideToY + 1e-9; y += kWaypoint) {
+    const std::optional<double> t = nearest_crossing(mesh, Vec3(-40.0, y, kSlideZ), Vec3::UnitX(), 30.0);
+    if (!t) throw Error("enamel slide: tooth46's surface not found at y = " + std::to_string(y) + " mm");
+    Vec3 point, normal;
+    surface.nearest(Vec3(-40.0 + *t, y, kSlideZ), &point, &normal);
+    points.push_back(point);
+    normals.push_back(normal);
+  }
+  const Quat q = slide_orientation(m, normals[normals.size() / 2]);
+  const auto hand = [&](std::size_t i, double depth) {
+    return at(points[i] + normals[i] * (r_tip - depth), q);
+  };
+  Path path(hand(0, -1.0));
+  path.to(0.3, hand(0, press)).hold(0.3);
+  const double slide_start = path.end();
+  for (std::size_t i = 1; i < points.size(); ++i)
+    path.to((points[i] - points[i - 1]).norm() / kEnamelSlideSpeed, hand(i, press));
+
+  const std::vector<SimSample> samples = simulate(m, params, path.trajectory(), rate_hz);
+  EnamelSlide out;
+  out.max_rigid_penetration = max_rigid_penetration(m, samples);
+  // The force in the scan's tangent plane at the graphic tip, along and across the slide (+y laid
+  // into the plane), by how far along the slide (world y) the graphic tip is.
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const SimSample& sample = samples[i];
+    if (sample.t < slide_start + kSettle) continue;
+    const Vec3 g = sample.out.graphic.p;
+    const double s = g.y() - points.front().y();  // mm along the slide (world y)
+    Vec3 point, n;
+    surface.nearest(g, &point, &n);
+    const Vec3 f = sample.out.force;
+    const Vec3 along = (Vec3::UnitY() - Vec3::UnitY().dot(n) * n).normalized();
+    const Vec3 across = n.cross(along);
+    out.s.push_back(s);
+    out.along.push_back(f.dot(along));
+    out.across.push_back(f.dot(across));
+    out.normal.push_back(f.dot(n));
+    if (sample.out.state == InteractionState::Free)
+      out.free_steps.push_back(static_cast<int>(out.s.size()) - 1);
+  }
+  out.ripple = std::max(window_ripple(out.s, out.along, kEnamelRippleWindow),
+                        window_ripple(out.s, out.across, kEnamelRippleWindow));
+  double sum = 0.0;
+  for (const double v : out.normal) sum += v;
+  out.mean_normal = out.normal.empty() ? 0.0 : sum / static_cast<double>(out.normal.size());
+  return out;
+}
+
+}  // namespace cariesim::experiment
