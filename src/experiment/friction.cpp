@@ -36,10 +36,10 @@ void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, Ru
   Model arch = build_model(load_scene("real-arch", options.overrides), options.build);
   Params frictionless = arch.defaults;
   for (Material& m : frictionless.materials) m.mu_s = m.mu_d = m.mu_s_along = m.mu_d_along = 0.0;
-  const bool shading = arch.settings.force_shading;
+  const bool shading = arch.settings.force_shading;  // the step's default
   arch.settings.force_shading = false;
   const EnamelSlide spheres = enamel_slide(arch, frictionless, options.rate_hz);
-  arch.settings.force_shading = shading;
+  arch.settings.force_shading = true;
   const EnamelSlide shaded = enamel_slide(arch, frictionless, options.rate_hz);
   checks.rigid_penetration =
       std::max({checks.rigid_penetration, spheres.max_rigid_penetration, shaded.max_rigid_penetration});
@@ -62,7 +62,7 @@ void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, Ru
       .field("normal_load_N", kEnamelSlideLoad)
       .field("speed_mm_s", kEnamelSlideSpeed)
       .field("window_mm", kEnamelRippleWindow)
-      .field("force_shading", shading)
+      .field("force_shading_by_default", shading)
       .field("ripple_N", shaded.ripple)
       .field("ripple_sphere_normals_N", spheres.ripple)
       .field("mean_normal_N", shaded.mean_normal)

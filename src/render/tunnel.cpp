@@ -86,36 +86,43 @@ double surface_depth(const CollisionObject& caries, const Vec3& apex, const Vec3
   return 0.0;
 }
 
-}  // namespace
-
-void build_tunnel_rows(const TunnelLimits& limits, const Pose& g0, RowSet& rows) {
-  const Tunnel& t = *limits.tunnel;
-  const Vec3 axis_point = t.entry + t.n * (g0.p - t.entry).dot(t.n);
-  const double depth = (g0.p - t.entry).dot(t.n);
+// The tip held on the line through `point` along `n` (the tunnel's four side spheres, Fig. 5) and the
+// tool's orientation held at `q_lock` (eq. 7's constraint): two lateral rows and three rotation rows.
+void add_axis_lock_rows(const Vec3& point, const Vec3& n, const Quat& q_lock, const Pose& g0, RowSet& rows) {
+  const Vec3 axis_point = point + n * (g0.p - point).dot(n);
   Vec3 side[2];
-  tangent_basis(t.n, side[0], side[1]);
-  const auto add = [&](QpRow row, RowKind kind, TunnelRow which) {
-    row.key = tunnel_key(which);
-    rows.add(row, RowMeta{kind, -1, -1, -1});
-  };
-  // The four side spheres: the tip (tool-frame origin) stays on the axis.
+  tangent_basis(n, side[0], side[1]);
   for (int j = 0; j < 2; ++j) {
     QpRow row;
     row.a.head<3>() = side[j];
     row.b = side[j].dot(axis_point - g0.p);
     row.equality = true;
-    add(row, RowKind::TunnelLateral, j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
+    row.key = tunnel_key(j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
+    rows.add(row, RowMeta{RowKind::TunnelLateral, -1, -1, -1});
   }
-  // The orientation held by the tunnel (eq. 7's constraint).
-  const Vec3 back = rotation_vector(t.q_lock * g0.q.conjugate());
+  const Vec3 back = rotation_vector(q_lock * g0.q.conjugate());
   constexpr TunnelRow kRotation[3] = {TunnelRow::Rotation0, TunnelRow::Rotation1, TunnelRow::Rotation2};
   for (int j = 0; j < 3; ++j) {
     QpRow row;
     row.a[3 + j] = 1.0;
     row.b = back[j];
     row.equality = true;
-    add(row, RowKind::TunnelRotation, kRotation[j]);
+    row.key = tunnel_key(kRotation[j]);
+    rows.add(row, RowMeta{RowKind::TunnelRotation, -1, -1, -1});
   }
+}
+
+}  // namespace
+
+void build_tunnel_rows(const TunnelLimits& limits, const Pose& g0, RowSet& rows) {
+  const Tunnel& t = *limits.tunnel;
+  const double depth = (g0.p - t.entry).dot(t.n);
+  const auto add = [&](QpRow row, RowKind kind, TunnelRow which) {
+    row.key = tunnel_key(which);
+    rows.add(row, RowMeta{kind, -1, -1, -1});
+  };
+  // The four side spheres keep the tip on the axis; the orientation is held (eq. 7's constraint).
+  add_axis_lock_rows(t.entry, t.n, t.q_lock, g0, rows);
   // The bottom sphere: depth + n·dp <= upper.
   QpRow bottom;
   bottom.a.head<3>() = -t.n;
@@ -157,29 +164,8 @@ bool update_engagement(const Params& p, StateImpl& s, const Pose& haptic) {
 }
 
 void build_engagement_rows(const Engagement& e, const Pose& g0, RowSet& rows) {
-  // The tip stays on its axis line (as the tunnel's four side spheres, Fig. 5).
-  const Vec3 axis_point = e.point + e.n * (g0.p - e.point).dot(e.n);
-  Vec3 side[2];
-  tangent_basis(e.n, side[0], side[1]);
-  for (int j = 0; j < 2; ++j) {
-    QpRow row;
-    row.a.head<3>() = side[j];
-    row.b = side[j].dot(axis_point - g0.p);
-    row.equality = true;
-    row.key = tunnel_key(j == 0 ? TunnelRow::Lateral0 : TunnelRow::Lateral1);
-    rows.add(row, RowMeta{RowKind::TunnelLateral, -1, -1, -1});
-  }
-  // The orientation held where the tip caught (as eq. 7's lock).
-  const Vec3 back = rotation_vector(e.q * g0.q.conjugate());
-  constexpr TunnelRow kRotation[3] = {TunnelRow::Rotation0, TunnelRow::Rotation1, TunnelRow::Rotation2};
-  for (int j = 0; j < 3; ++j) {
-    QpRow row;
-    row.a[3 + j] = 1.0;
-    row.b = back[j];
-    row.equality = true;
-    row.key = tunnel_key(kRotation[j]);
-    rows.add(row, RowMeta{RowKind::TunnelRotation, -1, -1, -1});
-  }
+  // The tip stays on its axis line and the orientation where it caught (as the tunnel, Fig. 5, eq. 7).
+  add_axis_lock_rows(e.point, e.n, e.q, g0, rows);
 }
 
 bool try_enter_penetration(const Model& m, const Params& p, StateImpl& s, const Pose& haptic) {

@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -35,17 +36,20 @@ class SetOption : public ScratchTest {
     return file;
   }
 
-  // The last row's fz of a sim output.
-  static double last_fz(const fs::path& csv) {
+  // fz of a sim output's row at `t` (s).
+  static double fz_at(const fs::path& csv, double t) {
     std::istringstream in(read_text(csv));
-    std::string line, last, header;
+    std::string line, header;
     std::getline(in, header);
-    while (std::getline(in, line))
-      if (!line.empty()) last = line;
-    std::vector<std::string> cells;
-    std::istringstream row(last);
-    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-    return std::stod(cells.at(17));  // t, 7 haptic, 7 graphic, fx, fy, fz
+    while (std::getline(in, line)) {
+      std::vector<std::string> cells;
+      std::istringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      if (cells.size() > 17 && std::abs(std::stod(cells[0]) - t) < 1e-6)
+        return std::stod(cells[17]);  // t, 7 haptic, 7 graphic, fx, fy, fz
+    }
+    ADD_FAILURE() << csv << " has no row at t = " << t;
+    return 0.0;
   }
 };
 
@@ -59,12 +63,14 @@ TEST_F(SetOption, SimRunsTheOverriddenScene) {
   ASSERT_EQ(r.status, 0) << r.err;
   r = run(base + (dir_ / "soft.csv").string() + "' --set 'lesions[0].material.stiffness = 0.5'");
   ASSERT_EQ(r.status, 0) << r.err;
-  const double plain = last_fz(dir_ / "plain.csv");
-  const double stiff = last_fz(dir_ / "stiff.csv");
-  const double soft = last_fz(dir_ / "soft.csv");
+  // At the end of the press (t = 0.04 s), before the slide: the stiffer top pushes back harder, the
+  // softer one less (the slide's end depends also on whether the tip caught, docs/penetration.md).
+  const double plain = fz_at(dir_ / "plain.csv", 0.04);
+  const double stiff = fz_at(dir_ / "stiff.csv", 0.04);
+  const double soft = fz_at(dir_ / "soft.csv", 0.04);
   EXPECT_GT(plain, 0.05);
-  EXPECT_GT(stiff, 1.1 * plain);
-  EXPECT_NE(soft, plain);
+  EXPECT_GT(stiff, 1.05 * plain);
+  EXPECT_LT(soft, 0.95 * plain);
 }
 
 TEST_F(SetOption, BadOverridesAreRefusedWithTheFilesMessage) {

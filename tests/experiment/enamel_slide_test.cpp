@@ -29,9 +29,10 @@ Params frictionless(const Model& m) {
 
 experiment::EnamelSlide slide_with(bool shading) {
   Model& m = real_arch();
+  const bool by_default = m.settings.force_shading;
   m.settings.force_shading = shading;
   experiment::EnamelSlide slide = experiment::enamel_slide(m, frictionless(m));
-  m.settings.force_shading = true;
+  m.settings.force_shading = by_default;
   std::printf(
       "force shading %s: ripple %.4f N over %.2f mm, mean normal %.3f N, %zu free steps, rigid %.4f mm\n",
       shading ? "on" : "off", slide.ripple, slide.s.empty() ? 0.0 : slide.s.back() - slide.s.front(),

@@ -55,8 +55,10 @@ struct StepSettings {
   double contact_margin = 0.02;  ///< mm, extra margin when collecting contacts
   /// Force shading (docs/step.md, "Force shading"): rigid contact rows take their normal from the
   /// surface (the leaves' tangent normals, blended) instead of the sphere pair's centre line, so that
-  /// a smooth tooth renders smooth; the gap stays the sphere pair's. False: the sphere normals.
-  bool force_shading = true;
+  /// a smooth tooth renders smooth; the gap stays the sphere pair's. False: the sphere normals. Off by
+  /// default until its step-time cost and its effect on a shank held by a neighbour are settled
+  /// (docs/performance.md, "Tenth round").
+  bool force_shading = false;
   double reference_dt = 0.001;   ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
