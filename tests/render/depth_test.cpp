@@ -14,18 +14,10 @@
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "render/render_support.hpp"
 
 namespace cariesim {
 namespace {
-
-const Model& arch() {
-  static const Model model = [] {
-    BuildOptions o;
-    o.cache_dir = std::filesystem::path(CARIESIM_BINARY_DIR) / "test-cache";
-    return build_model(load_scene("real-arch"), o);
-  }();
-  return model;
-}
 
 const Model& blocks() {
   static const Model model = build_model(load_scene("insertion-blocks"));
@@ -141,7 +133,7 @@ class RealArchDepth : public ::testing::TestWithParam<CariesPreset> {};
 // every step inside, down to the floor. On main it was short by how far the tip had sunk before it
 // broke in (severe: 0.16 mm at entry, the floor read 2.34 mm).
 TEST_P(RealArchDepth, DepthIsTheApexsDepthBelowTheSurface) {
-  const Model m = with_caries(arch(), 0, caries_preset(GetParam()));
+  const Model m = with_caries(test::real_arch(), 0, caries_preset(GetParam()));
   const LesionModel& l = m.lesions[0];
   const Probe run = insert(m, l.shape.center, l.shape.normal, clearest_aim(m, l, 2.5), 7.0);
   int inside = 0;
@@ -155,7 +147,7 @@ TEST_P(RealArchDepth, DepthIsTheApexsDepthBelowTheSurface) {
 // A two-layer lesion #1 (k_c 0.3 over 0.6 N/mm, boundary authored 1.0 mm below the surface): the felt
 // force steps where the apex is within 0.05 mm of 1.0 mm below the surface.
 TEST_P(RealArchDepth, LayerBoundaryIsFeltAtItsAuthoredDepth) {
-  const Model m = with_caries(arch(), 0, two_layers(GetParam(), 0.3, 0.6, 1.0));
+  const Model m = with_caries(test::real_arch(), 0, two_layers(GetParam(), 0.3, 0.6, 1.0));
   const LesionModel& l = m.lesions[0];
   const Probe run = insert(m, l.shape.center, l.shape.normal, clearest_aim(m, l, 2.5), 9.0);
   const double before = run.mean_force(0.6, 0.9), after = run.mean_force(1.15, 1.4);

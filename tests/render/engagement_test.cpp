@@ -17,18 +17,10 @@
 #include "cariesim/render/step.hpp"
 #include "cariesim/scene/model_builder.hpp"
 #include "cariesim/scene/scene.hpp"
+#include "render/render_support.hpp"
 
 namespace cariesim {
 namespace {
-
-const Model& arch() {
-  static const Model model = [] {
-    BuildOptions o;
-    o.cache_dir = std::filesystem::path(CARIESIM_BINARY_DIR) / "test-cache";
-    return build_model(load_scene("real-arch"), o);
-  }();
-  return model;
-}
 
 int object_named(const Model& m, const std::string& prefix) {
   for (std::size_t i = 0; i < m.objects.size(); ++i)
@@ -90,7 +82,7 @@ double floor_along(const LesionModel& l, const Posture& p) {
 // skated 0.38 mm across the lesion into its rim), and blocked ones 0.51-0.76 mm after the tool slid
 // or pivoted off 45.
 TEST(Engagement, PostureGridAtTheInterproximalLesion) {
-  const Model& m = arch();
+  const Model& m = test::real_arch();
   const LesionModel& l = m.lesions[1];
   const int t45 = object_named(m, "tooth45");
   ASSERT_GE(t45, 0);

@@ -1,8 +1,11 @@
 #include "render/render_support.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
+#include "cariesim/scene/model_builder.hpp"
+#include "cariesim/scene/scene.hpp"
 #include "cariesim/spheretree/build.hpp"
 #include "render/pairs.hpp"
 #include "render/state_impl.hpp"
@@ -91,6 +94,15 @@ double rigid_clearance(const Model& m, const Pose& tool) {
 void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot) {
   detail::set_leaf_margins(m, trans, rot, s.collision);
   detail::collect_pairs(m, s.constants, s.collision, g, s.constants.all_mask, s.pairs);
+}
+
+const Model& real_arch() {
+  static const Model model = [] {
+    BuildOptions o;
+    o.cache_dir = std::filesystem::path(CARIESIM_BINARY_DIR) / "test-cache";
+    return build_model(load_scene("real-arch"), o);
+  }();
+  return model;
 }
 
 }  // namespace cariesim::test

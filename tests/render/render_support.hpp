@@ -46,6 +46,10 @@ Pose probe_at(const Vec3& p);
 /// margins, then the pairs at g (every object: the step's mask) into s.pairs.
 void collect(const Model& m, StateImpl& s, const Pose& g, double trans, double rot = 0.0);
 
+/// The built-in real-arch scene's model, built once per test program through the build tree's test
+/// tree cache.
+const Model& real_arch();
+
 /// Smallest gap (mm) between any tool leaf and any leaf of the rigid objects (rigid_objects), capped
 /// at 1 mm.
 double rigid_clearance(const Model& m, const Pose& tool);
