@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/geometry/nearest.hpp"
 #include "cariesim/geometry/ray_cast.hpp"
 #include "experiment/common.hpp"
 
@@ -49,40 +50,6 @@ struct Surface {
               .normalized();
     }
   }
-
-  // Ericson, Real-Time Collision Detection §5.1.5: the point of triangle abc nearest p, with the
-  // barycentric weights of b (u) and c (v).
-  static Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double* u,
-                                  double* v) {
-    const Vec3 ab = b - a, ac = c - a, ap = p - a;
-    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-    if (d1 <= 0 && d2 <= 0) return *u = 0, *v = 0, a;
-    const Vec3 bp = p - b;
-    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-    if (d3 >= 0 && d4 <= d3) return *u = 1, *v = 0, b;
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-      const double w = d1 / (d1 - d3);
-      return *u = w, *v = 0, Vec3(a + w * ab);
-    }
-    const Vec3 cp = p - c;
-    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-    if (d6 >= 0 && d5 <= d6) return *u = 0, *v = 1, c;
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-      const double w = d2 / (d2 - d6);
-      return *u = 0, *v = w, Vec3(a + w * ac);
-    }
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-      const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-      return *u = 1 - w, *v = w, Vec3(b + w * (c - b));
-    }
-    const double denom = 1.0 / (va + vb + vc);
-    *u = vb * denom;
-    *v = vc * denom;
-    return a + ab * *u + ac * *v;
-  }
 };
 
 // 46's scanned surface: the uncut mesh of its healthy part (an object cut by lesions keeps it as
@@ -100,15 +67,7 @@ const TriangleMesh& tooth46_mesh(const Model& m) {
 Surface slide_surface(const TriangleMesh& mesh) {
   Surface s;
   s.mesh = &mesh;
-  s.vertex_normal.assign(mesh.vertices.size(), Vec3::Zero());
-  for (const auto& tri : mesh.triangles) {
-    const Vec3 a = mesh.vertices[tri[0]].cast<double>(), b = mesh.vertices[tri[1]].cast<double>(),
-               c = mesh.vertices[tri[2]].cast<double>();
-    const Vec3 area_normal = (b - a).cross(c - a);  // twice the area, outward for the builder's winding
-    for (const uint32_t v : tri) s.vertex_normal[v] += area_normal;
-  }
-  for (Vec3& n : s.vertex_normal)
-    if (n.norm() > 0) n.normalize();
+  s.vertex_normal = vertex_normals(mesh);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     for (const uint32_t v : mesh.triangles[t]) {
       const Vec3 p = mesh.vertices[v].cast<double>();
