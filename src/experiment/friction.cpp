@@ -27,8 +27,8 @@ struct Run {
 };
 
 // How smooth scanned enamel feels (docs/step.md, "Force shading"): the frictionless slide over the
-// real arch's 46 (experiment/enamel_slide.hpp) with the rows' normals shaded and, for comparison, with
-// the sphere pairs' own normals; the tangential force of both along the slide goes to
+// real arch's 46 (experiment/enamel_slide.hpp) with force shading and, for comparison, without it
+// (the force of the sphere pairs' own normals); the tangential force of both along the slide goes to
 // enamel_slide.csv (the figure enamel_ripple.png), the ripple and the presets' friction at the same
 // load to the summary.
 void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, RunChecks& checks) {

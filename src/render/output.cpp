@@ -4,6 +4,7 @@
 #include "render/output.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "render/state_impl.hpp"
@@ -11,13 +12,59 @@
 
 namespace cariesim::detail {
 
+namespace {
+
+// Force shading (Morgenbesser and Srinivasan 1996; docs/step.md, "Force shading"). The rows hold the
+// tool on the exact sphere pairs (eq. 1), so the coupling force is the rows' reactions Σ λ_i n_i (the
+// QP's stationarity, G(d - x_target) = Aᵀλ) and each small inscribed sphere tilts it: a smooth tooth
+// felt rough. The rendered force is turned, magnitude kept, from the rigid rows' reaction direction
+// (Σ λ_i n_i) to their surface normals' (Σ λ_i n_s,i, shaded_normal), in part where compliant rows
+// share the load (by the rigid rows' share of the multipliers), and not where the rows' surface
+// normals disagree (a tip between two walls of a fissure: kShadeAgree*): there the load moves between
+// walls from one step to the next and a turned force would jump with it. Where the tool goes is the
+// sphere pairs' either way.
+constexpr double kShadeAgreeFullCos = 0.984807753012208;   // cos 10 degrees
+constexpr double kShadeAgreeNoneCos = 0.9396926207859084;  // cos 20 degrees
+
+Vec3 shade_force(const Model& m, const StateImpl& s, const Vec3& force) {
+  std::array<Vec3, kQpMaxRows> normals;  // the loaded rigid rows' surface normals, in order
+  int loaded = 0;
+  Vec3 sphere = Vec3::Zero(), surface = Vec3::Zero();
+  double all = 0.0, rigid = 0.0;  // N, the contact rows' multipliers, the rigid rows'
+  for (int i = 0; i < s.rows.problem.row_count; ++i) {
+    const RowMeta& meta = s.rows.meta[i];
+    const double lambda = s.solution.qp.lambda[i];
+    if (meta.kind != RowKind::Contact || !(lambda > 0.0)) continue;
+    all += lambda;
+    if (meta.pair < 0 || meta.region < 0 || s.regions.regions[meta.region].compliant) continue;
+    rigid += lambda;
+    normals[loaded] = shaded_normal(m, s.pairs, meta.pair);
+    sphere += lambda * s.rows.problem.rows[i].a.head<3>();
+    surface += lambda * normals[loaded++];
+  }
+  if (!(rigid > 0.0) || sphere.norm() < 1e-12 || surface.norm() < 1e-12) return force;
+  // How well the rigid rows' surface normals agree: the least of them against their mean.
+  const Vec3 mean = surface.normalized();
+  double least = 1.0;
+  for (int k = 0; k < loaded; ++k) least = std::min(least, normals[k].dot(mean));
+  const double agree =
+      std::clamp((least - kShadeAgreeNoneCos) / (kShadeAgreeFullCos - kShadeAgreeNoneCos), 0.0, 1.0);
+  const double weight = agree * rigid / all;
+  if (!(weight > 0.0)) return force;
+  // The turn that takes the one direction to the other, by `weight` of its angle.
+  const Eigen::AngleAxisd full(Quat::FromTwoVectors(sphere.normalized(), mean));
+  return Eigen::AngleAxisd(weight * full.angle(), full.axis()) * force;
+}
+
+}  // namespace
+
 StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, const Pose& haptic,
                        const StepTrace& trace, std::chrono::steady_clock::time_point start) {
   StepOutput out;
   out.flags = trace.flags;
 
-  // Force and torque: the coupling while sliding (eq. 2), the tunnel's stiffness while penetrating
-  // (eq. 6: k_p^t, the device's maximum stiffness; eq. 7: k_θ), bounded by the device.
+  // Force and torque: the coupling while sliding (eq. 2; its force shaded), the tunnel's stiffness
+  // while penetrating (eq. 6: k_p^t, the device's maximum stiffness; eq. 7: k_θ), bounded by the device.
   const bool inside = penetrating(s.interaction);
   double k_t = p.gains.k_trans, k_r = p.gains.k_rot;
   if (inside) {
@@ -26,6 +73,7 @@ StepOutput make_output(const Model& m, const Params& p, const StateImpl& s, cons
   }
   Vec3 force = k_t * (s.graphic.p - haptic.p);
   Vec3 torque = k_r * rotation_vector(s.graphic.q * haptic.q.conjugate());
+  if (!inside && m.settings.force_shading) force = shade_force(m, s, force);
   if (!force.allFinite()) force.setZero();
   if (!torque.allFinite()) torque.setZero();
   // Catching up, and the ramp after it (docs/step.md, "Catching up"): at most the cap.

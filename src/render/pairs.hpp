@@ -44,12 +44,6 @@ struct PairGeometry {
   bool wall = false;  ///< a caries leaf with only wall patches (its interface with healthy tissue)
   /// Measured against a tangent on an internal boundary: a healthy leaf's patch on a lesion's wall.
   bool internal = false;
-  /// Rigid leaf with a tangent: the surface's outward normal there (the leaf's tangent facing the
-  /// tool, leaned toward the sphere normal where the tool touches the sphere's side), which
-  /// shade_rigid_normals blends into `normal`; zero otherwise.
-  Vec3 surface = Vec3::Zero();
-  /// mm: with a surface normal, the sphere pair's own gap (`gap` is then taken along the shaded normal)
-  double sphere_gap = 0.0;
 };
 
 /// The collision stage's output: the pairs the rows of one sub-step are made of, each with its
@@ -92,14 +86,12 @@ void set_leaf_margins(const Model& m, double trans, double rot, CollisionScratch
 /// measured sphere against sphere; a compliant leaf against the tangent patch facing the tool while
 /// the tool lies over it (a caries leaf's wall patches excepted).
 PairGeometry measure_pair(const Model& m, const ModelConstants& k, const Pose& g, const PairRef& p);
-/// Force shading (Morgenbesser and Srinivasan 1996; docs/step.md, "Force shading"): every rigid pair
-/// measured with a surface normal (PairGeometry::surface) gets as its row's normal the blend of the
-/// surface normals of its (tool leaf, object)'s pairs near the deepest one (within
-/// StepSettings::contact_margin of its gap, weighted (1 - excess/margin)^2) and facing about the same
-/// way (within 20 degrees in full, fading out at 50), so that the normal turns smoothly as the tool
-/// slides from one inscribed sphere to the next; the gap stays the sphere pair's. A pair the re-check
-/// forced keeps its sphere normal. Off (sphere normals) when StepSettings::force_shading is false.
-void shade_rigid_normals(const Model& m, PairSet& pairs);
+/// Force shading (Morgenbesser and Srinivasan 1996; docs/step.md, "Force shading"): the surface's
+/// normal at pair i's contact point (the tool sphere's point toward the object sphere): the object's
+/// mesh normals interpolated at the mesh point nearest it (Model::shading_surfaces), leaned toward the
+/// pair's sphere normal where the two differ by more than 10 degrees and the sphere normal beyond 15;
+/// the pair's own normal where the object has no mesh or none lies within 0.03 mm. Allocates nothing.
+Vec3 shaded_normal(const Model& m, const PairSet& pairs, int i);
 /// Collects the pairs within the leaf margins at g0 and measures them there (replaces `out`). When
 /// more qualify than fit, each (tool leaf, object) keeps its nearest, the same number for all.
 /// Returns false on overflow.

@@ -17,6 +17,7 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/common/error.hpp"
 #include "cariesim/geometry/mesh.hpp"
+#include "cariesim/geometry/nearest.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/geometry/ray_cast.hpp"
 #include "cariesim/io/file.hpp"
@@ -456,6 +457,30 @@ uint64_t part_cache_key(const ObjectDesc& object, const TreeParams& params,
   return key.value();
 }
 
+namespace {
+
+// Force shading's surfaces (Model::shading_surfaces): each rigid object's display mesh, gridded for
+// nearest-point queries; for an object lesions cut, its uncut surface (the scan itself, `whole`):
+// outside the lesions, where the tool meets the healthy part, the two are one surface, and the cut
+// part's mesh is the level set's, not the scan's (it gave 0.030 N of ripple on 46 against the scan's
+// 0.014; docs/performance.md, "Eleventh round").
+constexpr double kShadingCell = 0.1;  // mm, the nearest-point grid's cell
+
+void set_shading_surfaces(Model& model) {
+  model.shading_surfaces.assign(model.objects.size(), MeshNearest());
+  for (const DisplayPart& part : model.display) {
+    if (part.object < 0 || static_cast<std::size_t>(part.object) >= model.objects.size() ||
+        part.mesh.triangles.empty())
+      continue;
+    if (!rigid_object(model.objects[static_cast<std::size_t>(part.object)].tree, model.defaults.materials))
+      continue;
+    model.shading_surfaces[static_cast<std::size_t>(part.object)] =
+        MeshNearest(!part.whole.triangles.empty() ? part.whole : part.mesh, kShadingCell);
+  }
+}
+
+}  // namespace
+
 Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildReport* report_out) {
   const auto start = Clock::now();
   Model model;
@@ -492,6 +517,7 @@ Model build_model(const SceneDesc& scene, const BuildOptions& options, BuildRepo
   model.servo_rate = scene.servo_rate;
   model.scene_hash = scene_key.value();
   model.tool_home = tool_home(scene, model);
+  set_shading_surfaces(model);
   out.total_seconds = seconds_since(start);
   return model;
 }

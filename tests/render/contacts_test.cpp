@@ -120,41 +120,27 @@ TEST(MeasurePair, CariesWallLeafIsMarkedAndLeftOut) {
 }
 
 // The collision stage measures every pair once, at the rows' configuration: the stored geometry is
-// measure_pair's at `at`, bit for bit (sphere normals, the default), and the nearest pair is the
-// closed-form gap; with force shading on, the rows take the flat top's normal.
+// measure_pair's at `at`, bit for bit, and the nearest pair is the closed-form gap.
 TEST(CollectPairs, MeasuresEachPairOnceAtTheRowsConfiguration) {
-  for (const bool shading : {false, true}) {
-    Model m = slab_model(test::enamel(), ObjectKind::Rigid);
-    m.settings.force_shading = shading;
-    State state(m, probe_at(Vec3(0, 0, 5)));
-    StateImpl& s = state_impl(state);
-    const Pose g = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
-    test::collect(m, s, g, 0.05);
-    ASSERT_GT(s.pairs.count, 0);
-    EXPECT_FALSE(s.pairs.overflow);
-    EXPECT_EQ(s.pairs.at.p, g.p);
-    double nearest = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < s.pairs.count; ++i) {
-      const PairGeometry again = measure_pair(m, s.constants, g, s.pairs.refs[i]);
-      EXPECT_EQ(s.pairs.geometry[i].sphere_gap, again.gap) << i;
-      if (shading) {
-        // Force shading (docs/step.md): the slab's leaves all give the flat top's normal, which the
-        // row takes, with the gap along it; measure_pair gives the sphere pair's gap and its surface
-        // normal.
-        EXPECT_EQ(s.pairs.geometry[i].surface, again.surface) << i;
-        EXPECT_LT((s.pairs.geometry[i].normal - Vec3::UnitZ()).norm(), 1e-6) << i;
-        EXPECT_GE(s.pairs.geometry[i].gap, again.gap - 1e-12) << i;  // along the normal: no shorter
-      } else {
-        EXPECT_EQ(s.pairs.geometry[i].gap, again.gap) << i;
-        EXPECT_EQ(s.pairs.geometry[i].normal, again.normal) << i;
-      }
-      EXPECT_FALSE(s.pairs.refs[i].forced);
-      // Within the margin: the sub-step's reach plus the contact margin.
-      EXPECT_LT(s.pairs.geometry[i].sphere_gap, 0.05 + m.settings.contact_margin + 1e-9);
-      nearest = std::min(nearest, s.pairs.geometry[i].sphere_gap);
-    }
-    EXPECT_NEAR(nearest, 0.01, 1e-6) << (shading ? "shaded" : "sphere normals");
+  const Model m = slab_model(test::enamel(), ObjectKind::Rigid);
+  State state(m, probe_at(Vec3(0, 0, 5)));
+  StateImpl& s = state_impl(state);
+  const Pose g = probe_at(Vec3(0.0, 0.0, kTip + 0.01));
+  test::collect(m, s, g, 0.05);
+  ASSERT_GT(s.pairs.count, 0);
+  EXPECT_FALSE(s.pairs.overflow);
+  EXPECT_EQ(s.pairs.at.p, g.p);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < s.pairs.count; ++i) {
+    const PairGeometry again = measure_pair(m, s.constants, g, s.pairs.refs[i]);
+    EXPECT_EQ(s.pairs.geometry[i].gap, again.gap) << i;
+    EXPECT_EQ(s.pairs.geometry[i].normal, again.normal) << i;
+    EXPECT_FALSE(s.pairs.refs[i].forced);
+    // Within the margin: the sub-step's reach plus the contact margin.
+    EXPECT_LT(s.pairs.geometry[i].gap, 0.05 + m.settings.contact_margin + 1e-9);
+    nearest = std::min(nearest, s.pairs.geometry[i].gap);
   }
+  EXPECT_NEAR(nearest, 0.01, 1e-6);
 }
 
 // More pairs than the contact capacity: the stage reports overflow and keeps what fits.

@@ -118,12 +118,9 @@ TEST(StepFlags, WorkBudget) {
 }
 
 // The whole probe lying on a rough rigid slab (small spheres: each shank sphere meets several distinct
-// normals, a row each): more rows than the QP holds. With force shading the slab's flat top gives
-// every pair of a tool leaf one normal (docs/step.md, "Force shading"), so the rows that fill the QP
-// are the sphere normals': shading off.
+// normals, a row each): more rows than the QP holds.
 TEST(StepFlags, QpRowsFull) {
-  Model m = rough_floor();
-  m.settings.force_shading = false;
+  const Model m = rough_floor();
   const Params p = flat(m);
   State s(m, lying(0.0, 0.05));
   bool flagged = false;

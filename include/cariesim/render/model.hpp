@@ -4,6 +4,7 @@
 /// gains, device limits). Built once from a scene (scene/model_builder.hpp) and never changed after; what
 /// may change while the loop runs is a Params block (render/params.hpp) the caller owns.
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "cariesim/collision/collide.hpp"
 #include "cariesim/device/input_guard.hpp"
 #include "cariesim/geometry/mesh.hpp"
+#include "cariesim/geometry/nearest.hpp"
 #include "cariesim/geometry/procedural.hpp"
 #include "cariesim/render/material.hpp"
 #include "cariesim/render/params.hpp"
@@ -53,12 +55,11 @@ struct StepSettings {
   /// the UDP bridge use the same limits (stale_after).
   InputLimits input;
   double contact_margin = 0.02;  ///< mm, extra margin when collecting contacts
-  /// Force shading (docs/step.md, "Force shading"): rigid contact rows take their normal from the
-  /// surface (the leaves' tangent normals, blended) instead of the sphere pair's centre line, so that
-  /// a smooth tooth renders smooth; the gap stays the sphere pair's. False: the sphere normals. Off by
-  /// default until its step-time cost and its effect on a shank held by a neighbour are settled
-  /// (docs/performance.md, "Tenth round").
-  bool force_shading = false;
+  /// Force shading (docs/step.md, "Force shading"): the rendered force is turned from the rigid
+  /// rows' sphere normals to the surface's normals at their contact points (the meshes' normals
+  /// interpolated, Model::shading_surfaces), so that a smooth tooth renders smooth; the rows, and with
+  /// them where the tool goes, stay the sphere pairs'. False: the coupling force as it is.
+  bool force_shading = true;
   double reference_dt = 0.001;   ///< s, eq. 5 is per 1 ms cycle; depth growth scales by dt/this
   /// mm/s, the fastest the tip gives way inside a lesion: a breakthrough (resistance below F_p*)
   /// plays over several cycles instead of one force step (docs/penetration.md)
@@ -107,6 +108,9 @@ struct Model {
   std::string scene_name;
   uint64_t scene_hash = 0;
   std::vector<DisplayPart> display;  ///< cold data for the viewer and reports
+  /// Force shading's surfaces (docs/step.md, "Force shading"), by object: its display mesh with its
+  /// vertex normals for nearest-point queries; empty for a compliant object or one without a mesh.
+  std::vector<MeshNearest> shading_surfaces;
 };
 
 /// Whether an object is rigid: it has leaves and every leaf's material in `materials` (indexed by
