@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cariesim/servo/servo.hpp"
@@ -21,6 +22,54 @@ namespace {
 // Exit status when there is no display to open the window on.
 constexpr int kNoDisplay = 4;
 
+// The window's options that `run` and `review` share.
+struct WindowArgs {
+  std::string screenshot;
+  double exit_after = 0.0;           // s of servo time
+  std::vector<int> size{1280, 800};  // px, the window's width and height
+  std::string view;                  // camera preset; empty: the whole scene framed
+  bool no_realtime = false;
+};
+
+// Adds WindowArgs' options to `sub`; `exit_help` says whose servo time --exit-after counts.
+void add_window_options(CLI::App* sub, WindowArgs& w, const std::string& exit_help) {
+  auto* exit_after = sub->add_option("--exit-after", w.exit_after, exit_help)->check(finite_range(1e-6, 1e9));
+  sub->add_option("--screenshot", w.screenshot,
+                  "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
+      ->needs(exit_after);
+  sub->add_option("--size", w.size, "Window width and height in pixels (the window can be resized)")
+      ->expected(2)
+      ->check(CLI::Range(320, 8192))
+      ->capture_default_str();
+  sub->add_option("--view", w.view,
+                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys F1-F4)")
+      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
+  sub->add_flag("--no-realtime", w.no_realtime, "Do not ask for real-time priority for the servo thread");
+}
+
+#ifdef CARIESIM_HAS_VIEWER
+// The viewer's window with `options` and the shared window options, or kNoDisplay (and how to use Xvfb
+// instead) without a display.
+int open_window(const WindowArgs& w, viewer::ViewerOptions options) {
+  if (!viewer::display_available()) {
+    std::fputs(("error: " + viewer::headless_message()).c_str(), stderr);
+    return kNoDisplay;
+  }
+  options.screenshot = w.screenshot;
+  options.exit_after = w.exit_after;
+  options.width = w.size[0];
+  options.height = w.size[1];
+  options.view = w.view;
+  options.realtime = !w.no_realtime;
+  return viewer::run_viewer(options);
+}
+#else
+int without_viewer() {
+  std::fputs("error: this cariesim was built without the viewer (CARIESIM_BUILD_VIEWER=OFF)\n", stderr);
+  return 3;
+}
+#endif
+
 struct RunArgs {
   std::string scene = "real-arch";
   std::string device = "mouse";
@@ -28,14 +77,10 @@ struct RunArgs {
   double rate = 0.0;  // Hz; 0 = the scene's servo rate
   std::string record;
   bool overwrite = false;
-  std::string screenshot;
-  double exit_after = 0.0;  // s of servo time
+  WindowArgs window;
   bool show_lesions = false;
-  bool no_realtime = false;
-  double spin_us = kDefaultSpinUs;   // µs polled before each deadline
-  bool no_standby = false;           // no standby servo thread (ServoOptions::standby)
-  std::string view;                  // camera preset; empty: the whole scene framed
-  std::vector<int> size{1280, 800};  // px, the window's width and height
+  double spin_us = kDefaultSpinUs;  // µs polled before each deadline
+  bool no_standby = false;          // no standby servo thread (ServoOptions::standby)
   bool trainee = false;
   std::string course, participant, station, script, answers;
   int trials = 0;  // 0: the study's count
@@ -45,11 +90,6 @@ struct RunArgs {
 
 int run_simulator(const RunArgs& args) {
 #ifdef CARIESIM_HAS_VIEWER
-  // Without a display say so, and how to use Xvfb instead.
-  if (!viewer::display_available()) {
-    std::fputs(("error: " + viewer::headless_message()).c_str(), stderr);
-    return kNoDisplay;
-  }
   viewer::ViewerOptions options;
   options.scene = args.scene;
   options.overrides = scene_overrides(args.sets);
@@ -58,15 +98,9 @@ int run_simulator(const RunArgs& args) {
   options.rate_hz = args.rate;
   options.record = args.record;
   options.overwrite = args.overwrite;
-  options.screenshot = args.screenshot;
-  options.exit_after = args.exit_after;
   options.show_lesions = args.show_lesions;
-  options.realtime = !args.no_realtime;
   options.spin_us = args.spin_us;
   options.standby = !args.no_standby;
-  options.view = args.view;
-  options.width = args.size[0];
-  options.height = args.size[1];
   options.trainee = args.trainee;
   options.course = args.course;
   options.participant = args.participant;
@@ -75,11 +109,10 @@ int run_simulator(const RunArgs& args) {
   options.answers = args.answers;
   if (args.trials > 0) options.trials = args.trials;
   options.seed = args.seed;
-  return viewer::run_viewer(options);
+  return open_window(args.window, std::move(options));
 #else
   (void)args;
-  std::fputs("error: this cariesim was built without the viewer (CARIESIM_BUILD_VIEWER=OFF)\n", stderr);
-  return 3;
+  return without_viewer();
 #endif
 }
 
@@ -87,36 +120,21 @@ struct ReviewArgs {
   std::string database;
   std::string participant;
   int trial = 0;  // 0: the participant's last ended trial
-  std::string screenshot;
-  double exit_after = 0.0;  // s of servo time
-  std::vector<int> size{1280, 800};
-  std::string view;
-  bool no_realtime = false;
+  WindowArgs window;
 };
 
 int run_review(const ReviewArgs& args) {
 #ifdef CARIESIM_HAS_VIEWER
   // The window on the trial rebuilt from the database, replaying its recording (docs/training.md).
-  if (!viewer::display_available()) {
-    std::fputs(("error: " + viewer::headless_message()).c_str(), stderr);
-    return kNoDisplay;
-  }
   viewer::ViewerOptions options;
   options.review = args.database;
   options.review_participant = args.participant;
   if (args.trial > 0) options.review_trial = args.trial;
   options.device = "null";
-  options.screenshot = args.screenshot;
-  options.exit_after = args.exit_after;
-  options.width = args.size[0];
-  options.height = args.size[1];
-  options.view = args.view;
-  options.realtime = !args.no_realtime;
-  return viewer::run_viewer(options);
+  return open_window(args.window, std::move(options));
 #else
   (void)args;
-  std::fputs("error: this cariesim was built without the viewer (CARIESIM_BUILD_VIEWER=OFF)\n", stderr);
-  return 3;
+  return without_viewer();
 #endif
 }
 
@@ -133,20 +151,8 @@ void register_review(CLI::App& app, Registry& registry) {
   sub->add_option("--trial", args->trial,
                   "The participant's N-th trial in the file, from 1 (default: their last ended trial)")
       ->check(CLI::Range(1, 1000000));
-  auto* exit_after = sub->add_option("--exit-after", args->exit_after,
-                                     "Exit after this many seconds of the replay's servo time (automation)")
-                         ->check(finite_range(1e-6, 1e9));
-  sub->add_option("--screenshot", args->screenshot,
-                  "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
-      ->needs(exit_after);
-  sub->add_option("--size", args->size, "Window width and height in pixels")
-      ->expected(2)
-      ->check(CLI::Range(320, 8192))
-      ->capture_default_str();
-  sub->add_option("--view", args->view,
-                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator")
-      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
-  sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
+  add_window_options(sub, args->window,
+                     "Exit after this many seconds of the replay's servo time (automation)");
   registry.add(sub, [args] { return run_review(*args); });
 }
 
@@ -162,12 +168,7 @@ void register_run(CLI::App& app, Registry& registry) {
       ->check(finite_range(1.0, 10000.0));
   auto* record = sub->add_option("--record", args->record, "Record the session into this SQLite file");
   sub->add_flag("--overwrite", args->overwrite, "Replace an existing record file")->needs(record);
-  auto* exit_after = sub->add_option("--exit-after", args->exit_after,
-                                     "Exit after this many seconds of servo time (automation)")
-                         ->check(finite_range(1e-6, 1e9));
-  sub->add_option("--screenshot", args->screenshot,
-                  "Write the last frame as PNG (and a status FILE.json beside it) when exiting")
-      ->needs(exit_after);
+  add_window_options(sub, args->window, "Exit after this many seconds of servo time (automation)");
   auto* show = sub->add_flag("--show-lesions", args->show_lesions,
                              "Start with the lesions revealed (hidden by default)");
   auto* trainee = sub->add_flag("--trainee", args->trainee,
@@ -191,14 +192,6 @@ void register_run(CLI::App& app, Registry& registry) {
                   "Window script for automation: timed key presses and passphrases (docs/viewer.md)");
   show->excludes(trainee)->excludes(course);
   course->excludes(record);  // a course's trials record themselves
-  sub->add_option("--size", args->size, "Window width and height in pixels (the window can be resized)")
-      ->expected(2)
-      ->check(CLI::Range(320, 8192))
-      ->capture_default_str();
-  sub->add_option("--view", args->view,
-                  "Camera preset on the explorer's tip: occlusal | buccal | lingual | operator (keys 1-4)")
-      ->check(CLI::IsMember({"occlusal", "buccal", "lingual", "operator"}));
-  sub->add_flag("--no-realtime", args->no_realtime, "Do not ask for real-time priority for the servo thread");
   add_spin_option(sub, args->spin_us);
   add_standby_option(sub, args->no_standby);
   registry.add(sub, [args] { return run_simulator(*args); });

@@ -315,7 +315,7 @@ void ViewerApp::panel_camera() {
     camera_.frame(session_->view->bounds());
     preset_.reset();
   }
-  // The clinician's views on the explorer's tip (keys 1-4), and a camera that follows the tip (T).
+  // The clinician's views on the explorer's tip (keys F1-F4), and a camera that follows the tip (T).
   // The buttons flow onto a second line when the panel is too narrow for one.
   ImGui::Text("view on the tip (F1-F4):");
   constexpr CameraPreset kPresets[] = {CameraPreset::Occlusal, CameraPreset::Buccal, CameraPreset::Lingual,

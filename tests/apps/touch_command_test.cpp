@@ -131,16 +131,7 @@ TEST_F(TouchRun, TheToolStaysPutWhileTheClutchIsHeldAndDoesNotJumpOnRelease) {
   EXPECT_LT(largest_step, 0.1) << "mm";
 }
 
-// Rows of an SQL query through the sqlite3 shell, one line per row, '|' between columns.
-std::vector<std::string> sql_rows(const std::filesystem::path& db, const std::string& query) {
-  const test::CommandOutput c = test::run_command({"sqlite3", db.string(), query});
-  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
-  std::vector<std::string> rows;
-  std::istringstream lines(c.out);
-  std::string line;
-  while (std::getline(lines, line)) rows.push_back(line);
-  return rows;
-}
+using test::sql_rows;
 
 // The headless study with the Touch: the answers file has no marks and no end; the stand-in presses
 // button 0 (the profile's mark severe) at 0.5 s, button 1 (mark mild) at 1.2 s and button 2 (end case)

@@ -3,12 +3,14 @@
 // shell. A command written as one line (a documented example, a test's arguments with their paths in
 // quotes) is split into words by Boost.Program_options' split_unix (blanks, quotes, backslashes), and
 // nothing else of a shell applies: no redirection, variable, glob or `;`.
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <boost/program_options/parsers.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -58,6 +60,17 @@ inline CommandOutput run_command(const std::string& program, const std::string& 
   std::vector<std::string> argv{program};
   for (std::string& w : words(args)) argv.push_back(std::move(w));
   return run_command(argv, std::move(options));
+}
+
+/// Rows of an SQL query on `db` through the sqlite3 shell (a reader independent of the project's own
+/// database code), one line per row, '|' between columns; a shell that fails fails the test.
+inline std::vector<std::string> sql_rows(const std::filesystem::path& db, const std::string& query) {
+  const CommandOutput c = run_command({"sqlite3", db.string(), query});
+  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
+  std::vector<std::string> rows;
+  std::istringstream lines(c.out);
+  for (std::string line; std::getline(lines, line);) rows.push_back(line);
+  return rows;
 }
 
 /// True when `name` is an executable file in a folder of PATH (what `command -v` finds).

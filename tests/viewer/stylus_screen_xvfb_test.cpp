@@ -32,15 +32,7 @@ using cariesim::test::RunResult;
 using cariesim::test::viewer_artefacts;
 using ::testing::HasSubstr;
 
-// Rows of an SQL query through the sqlite3 shell, one line per row, '|' between columns.
-std::vector<std::string> sql_rows(const fs::path& db, const std::string& query) {
-  const cariesim::test::CommandOutput c = cariesim::test::run_command({"sqlite3", db.string(), query});
-  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
-  std::vector<std::string> rows;
-  std::istringstream lines(c.out);
-  for (std::string line; std::getline(lines, line);) rows.push_back(line);
-  return rows;
-}
+using cariesim::test::sql_rows;
 
 // A scratch folder for course files and databases.
 fs::path scratch(const std::string& name) {

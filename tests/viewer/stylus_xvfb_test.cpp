@@ -24,16 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// Rows of an SQL query through the sqlite3 shell, one line per row, '|' between columns.
-std::vector<std::string> sql_rows(const fs::path& db, const std::string& query) {
-  const test::CommandOutput c = test::run_command({"sqlite3", db.string(), query});
-  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
-  std::vector<std::string> rows;
-  std::istringstream lines(c.out);
-  std::string line;
-  while (std::getline(lines, line)) rows.push_back(line);
-  return rows;
-}
+using test::sql_rows;
 
 TEST(StylusXvfb, MarkAndEndCaseButtonsReachTheStudyDatabase) {
   if (!test::have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed";

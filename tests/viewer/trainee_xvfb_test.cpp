@@ -236,16 +236,7 @@ TEST_F(TraineeXvfb, OnlyTheInstructorsPassphraseUnlocks) {
       << "unlocked, L reveals";
 }
 
-// Rows of an SQL query on a database through the sqlite3 shell, one line per row, '|' between columns.
-std::vector<std::string> sql_rows(const fs::path& db, const std::string& query) {
-  const cariesim::test::CommandOutput c = cariesim::test::run_command({"sqlite3", db.string(), query});
-  EXPECT_EQ(c.status, 0) << c.how << "\n" << c.out << c.err;
-  std::vector<std::string> rows;
-  std::istringstream lines(c.out);
-  std::string line;
-  while (std::getline(lines, line)) rows.push_back(line);
-  return rows;
-}
+using cariesim::test::sql_rows;
 
 // A straight hover above the first cube for 1 s (free space, the tip lowest), as a trajectory file.
 fs::path write_hover(const fs::path& dir) {
