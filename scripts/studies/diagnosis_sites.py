@@ -215,10 +215,16 @@ name: diagnosis-paper
 description: The paper's diagnosis case (section 5.3) first, then drawn cases.
 """
 
-BODY = """\
+BODY_HEAD = """\
 format: 1
 kind: diagnosis
 trials: 3
+"""
+
+# The built-in diagnosis study teaches: a debrief after each case. The paper's case does not set it.
+DEBRIEF = "debrief: after-each-case     # the trainee sees each case's lesions, marks and replay (docs/training.md)\n"
+
+BODY = """\
 diagnosis:
   scene: real-arch
   time_limit: 180.0
@@ -251,8 +257,8 @@ def main():
         sys.exit(__doc__)
     site_text = "\n".join(sites()) + "\n"
     files = {
-        "diagnosis.yaml": HEADER + DIAGNOSIS + BODY + site_text + GENERATE,
-        "diagnosis-paper.yaml": HEADER + PAPER + BODY + site_text + CASES + GENERATE,
+        "diagnosis.yaml": HEADER + DIAGNOSIS + BODY_HEAD + DEBRIEF + BODY + site_text + GENERATE,
+        "diagnosis-paper.yaml": HEADER + PAPER + BODY_HEAD + BODY + site_text + CASES + GENERATE,
     }
     stale = []
     for name, text in files.items():
