@@ -219,14 +219,19 @@ void ViewerApp::panel_debrief() {
   }
   if (!debrief_->review) {
     ImGui::SameLine();
-    const bool more = !debrief_queue_.empty() || (run_ && !run_->finished());
-    if (ImGui::Button(more ? "Continue" : "Done")) {
-      if (more)
-        continue_after_debrief();
-      else
-        debrief_.reset();
-    }
+    if (ImGui::Button(debrief_has_more() ? "Continue (Enter)" : "Done (Enter)")) debrief_go_on();
   }
+}
+
+bool ViewerApp::debrief_has_more() const { return !debrief_queue_.empty() || (run_ && !run_->finished()); }
+
+void ViewerApp::debrief_go_on() {
+  // Continue (the next debrief or the next case) or Done (the last): the panel's button and Enter.
+  if (!debrief_ || debrief_->review) return;
+  if (debrief_has_more())
+    continue_after_debrief();
+  else
+    debrief_.reset();
 }
 
 void ViewerApp::draw_debrief_overlay(int height) {

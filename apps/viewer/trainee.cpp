@@ -150,6 +150,13 @@ std::vector<ScriptStep> parse_script(std::string_view text, const std::string& f
       fail(fmt::format("time {:g} s is before the previous step's {:g} s", step.t, steps.back().t));
     std::getline(in >> std::ws, step.argument);
     step.action = action;
+    // A key's or lock's line may end in a comment; a passphrase is the rest of its line, as typed.
+    if (action != "passphrase") {
+      const std::size_t hash = step.argument.find('#');
+      if (hash != std::string::npos) step.argument.erase(hash);
+      const std::size_t last = step.argument.find_last_not_of(" \t");
+      step.argument.erase(last == std::string::npos ? 0 : last + 1);
+    }
     if (action == "key") {
       if (script_key_code(step.argument) < 0)
         fail(fmt::format("unknown key '{}' (a letter, a digit, Enter, Space or Escape)", step.argument));

@@ -401,6 +401,8 @@ void ViewerApp::handle_input() {
     if (grading && ImGui::IsKeyPressed(GLFW_KEY_1, false)) grade_choice_ = 0;
     if (grading && ImGui::IsKeyPressed(GLFW_KEY_2, false)) grade_choice_ = 1;
     if (ImGui::IsKeyPressed(GLFW_KEY_M, false)) study_mark();
+    // A debrief: Enter continues (or ends the last), as its button does.
+    if (debrief_ && ImGui::IsKeyPressed(GLFW_KEY_ENTER, false)) debrief_go_on();
   }
 }
 

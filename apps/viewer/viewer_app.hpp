@@ -239,6 +239,10 @@ class ViewerApp {
   void check_debrief_scene(const Model& model) const;
   [[nodiscard]] bool debrief_replay_done() const;
   void continue_after_debrief();
+  /// Whether a debrief or a case follows the one shown (its button says Continue, else Done).
+  [[nodiscard]] bool debrief_has_more() const;
+  /// The debrief's Continue or Done, from its button or the Enter key (the stylus stays in hand).
+  void debrief_go_on();
   void debrief_frame();
   void panel_debrief();
   void draw_debrief_overlay(int height);

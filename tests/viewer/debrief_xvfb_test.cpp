@@ -43,13 +43,14 @@ fs::path scratch(const std::string& name) {
   return dir;
 }
 
-// diagnosis-small (one severe fossa lesion on one molar) with `debrief`, two trials; with
-// `generate`, the second case is drawn (two lesions).
-fs::path write_study(const fs::path& dir, const std::string& debrief, bool generate) {
+// diagnosis-small (one severe fossa lesion on one molar) with `debrief`, two trials of
+// `time_limit` s; with `generate`, the second case is drawn (two lesions).
+fs::path write_study(const fs::path& dir, const std::string& debrief, bool generate,
+                     double time_limit = 10.0) {
   const fs::path file = dir / "debrief-small.yaml";
   std::ofstream(file) << fmt::format(
       "name: debrief-small\nkind: diagnosis\ntrials: 2\nseed: 11\n{}"
-      "diagnosis:\n  scene: {}\n  time_limit: 10.0\n"
+      "diagnosis:\n  scene: {}\n  time_limit: {:.1f}\n"
       "  sites:\n"
       "    - {{name: 46-occlusal, object: tooth46, site: occlusal, at: [0.0, 0.0, 7.0], normal: [0, 0, 1], "
       "snap_range: 3.0, shape: disk}}\n"
@@ -59,6 +60,7 @@ fs::path write_study(const fs::path& dir, const std::string& debrief, bool gener
       "  cases:\n    - lesions:\n        - {{site: 46-occlusal, severity: severe, size: 2.2, depth: "
       "2.0}}\n{}",
       debrief.empty() ? "" : "debrief: " + debrief + "\n", (examples() / "one-molar.yaml").string(),
+      time_limit,
       generate ? "  generate: {count: [2, 2], size: [1.6, 2.4], mild_depth: [0.6, 1.0], severe_depth: [1.3, "
                  "1.8]}\n"
                : "");
@@ -145,6 +147,38 @@ TEST_F(DebriefXvfb, AfterEachCaseTheTraineeSeesTheLesionTheMarksAndTheReplay) {
   const fs::path db = dir / "records" / "xvfb-1.db";
   EXPECT_EQ(sql(db, "SELECT count(*) FROM trials WHERE ended_at IS NOT NULL"), "2\n");
   EXPECT_EQ(sql(db, "SELECT count(*) FROM trial_sources WHERE scene_hash IS NOT NULL"), "2\n");
+}
+
+// A trainee without an answers file: each case ends at its 1 s time limit and its debrief stays until
+// it is continued; Enter (a --script key, 1.5 s into the first debrief's replay, after the replay has
+// played) continues it with the stylus still in hand, and the second case runs. Without the key the
+// first debrief would stay until --exit-after.
+TEST_F(DebriefXvfb, EnterContinuesTheDebriefToTheNextCase) {
+  const fs::path dir = scratch("enter");
+  const fs::path study = write_study(dir, "after-each-case", false, 1.0);
+  const fs::path course = dir / "course.yaml";
+  std::ofstream(course) << "course: Debrief by key\nstudy: " << study.string()
+                        << "\nrecords: records\nstation: xvfb-4\ninstructor: "
+                        << cariesim::training::hash_passphrase("molar probe 46",
+                                                               cariesim::training::kPassphraseMinIterations)
+                        << "\n";
+  const fs::path script = dir / "keys.txt";
+  std::ofstream(script) << "1.5 key Enter   # the first debrief's replay (1 s) has played\n";
+  const fs::path png = viewer_artefacts() / "debrief-enter.png";
+  fs::remove(png);
+  const RunResult r =
+      run_under_xvfb("run --course '" + course.string() + "' --participant P01 --device 'scripted:" +
+                         (examples() / "probe-fossa.csv").string() + "' --script '" + script.string() +
+                         "' --no-realtime --exit-after 8 --screenshot '" + png.string() + "'",
+                     "debrief-enter");
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_THAT(r.err, HasSubstr("trial 1 of 2 ended"));
+  EXPECT_THAT(r.err, HasSubstr("trial 2 of 2 ended"));
+  const fs::path json = viewer_artefacts() / "debrief-enter.json";
+  EXPECT_EQ(json_query(json, "d['debrief']['title']"), "Trial 2 of 2");
+  EXPECT_EQ(json_query(json, "d['study']['ended']"), "2");
+  // The second case ran its whole time, so the window ended on its debrief, not at --exit-after.
+  EXPECT_LT(std::stod(json_query(json, "d['t']")), 8.0);
 }
 
 // `debrief: at-end`: both cases run first, then each case's debrief (its scene built again), the

@@ -139,6 +139,12 @@ TEST(WindowScript, ParsesStepsAndNamesBadLines) {
   EXPECT_EQ(steps[1].argument, "two words here");
   EXPECT_EQ(steps[2].action, "lock");
   EXPECT_EQ(cariesim::viewer::script_key_code("Enter"), cariesim::viewer::script_key_code(steps[3].argument));
+  // A key's or lock's line may end in a comment (docs/viewer.md's example); a passphrase may hold '#'.
+  const auto commented = parse_script("0.5 key L   # reveal\n1 lock # again\n2 passphrase a # b\n", "s.txt");
+  ASSERT_EQ(commented.size(), 3u);
+  EXPECT_EQ(commented[0].argument, "L");
+  EXPECT_EQ(commented[1].argument, "");
+  EXPECT_EQ(commented[2].argument, "a # b");
 
   const auto error = [](const std::string& text) -> std::string {
     try {
