@@ -40,9 +40,11 @@ ARCH = [32, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17]
 FDI = {n: (38 - (n - 17) if n <= 24 else 41 + (n - 25)) for n in range(17, 33)}
 # Anatomical crown heights (mm) of the mandibular teeth by FDI tooth position (1 = central incisor).
 CROWN_HEIGHT = {1: 9.0, 2: 9.5, 3: 11.0, 4: 8.5, 5: 8.0, 6: 7.5, 7: 7.0, 8: 7.0}
-# The teeth probed (36, 46) and their neighbours get the fine trees (0.015 mm), the others coarser
-# ones (0.05 mm), the soft gingiva 0.08 mm: a cold build stays near oral-cavity's.
-FINE = {35, 36, 37, 45, 46, 47}
+# The posterior teeth, where the diagnosis study draws its lesions (scripts/studies/diagnosis_sites.py:
+# 34-37, 44-47), get the fine trees (0.015 mm), the others coarser ones (0.05 mm), the soft gingiva
+# 0.08 mm. A premolar's coarse tree tilted the contact normals 16-23 degrees, beyond what force
+# shading turns (docs/step.md): frictionless enamel on 44 rippled 0.3 N, twice 46's unshaded ripple.
+FINE = {34, 35, 36, 37, 44, 45, 46, 47}
 GUM_ABOVE_CEJ = 1.0  # mm, path height above the CEJ
 GUM_WIDTH = 16.0  # mm
 GUM_HEIGHT = 18.0  # mm

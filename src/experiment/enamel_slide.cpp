@@ -1,4 +1,4 @@
-// A frictionless slide over the real arch's scanned enamel (tooth 46's buccal surface) at 0.6 N and
+// A frictionless slide over the real arch's scanned enamel (tooth 46's buccal surface, or 44's) at 0.6 N and
 // 5 mm/s, and the tangential force it renders (docs/step.md, "Force shading"). The hand path and the
 // tangent planes come from the scan itself: the display mesh's area-weighted vertex normals
 // interpolated at the nearest point, the smooth surface a dentist's explorer slides on.
@@ -18,13 +18,9 @@ namespace cariesim::experiment {
 
 namespace {
 
-// The slide on 46's buccal surface (world mm, real-arch's frame): at height z = 4.75 from y = -3.5 to
-// y = 1.0 (mesial to distal), where the crown is smooth and convex (no groove, no lesion).
-constexpr double kSlideZ = 4.75;
-constexpr double kSlideFromY = -3.5;
-constexpr double kSlideToY = 1.0;
-constexpr double kWaypoint = 0.05;  // mm between the hand path's waypoints (along y)
+constexpr double kWaypoint = 0.05;  // mm between the hand path's waypoints (along the slide)
 constexpr double kSettle = 0.1;     // s after the slide starts before the force is measured
+constexpr double kNear = 2.0;       // mm: the triangles within this of the slide's line are searched
 
 // The scan's surface near the slide: its triangles there and the vertex normals.
 struct Surface {
@@ -52,26 +48,32 @@ struct Surface {
   }
 };
 
-// 46's scanned surface: the uncut mesh of its healthy part (an object cut by lesions keeps it as
-// `whole`), or its only part's mesh.
-const TriangleMesh& tooth46_mesh(const Model& m) {
+// The tooth's scanned surface: the uncut mesh of its healthy part (an object cut by lesions keeps it
+// as `whole`), or its only part's mesh.
+const TriangleMesh& tooth_mesh(const Model& m, const std::string& tooth) {
   for (const DisplayPart& part : m.display) {
     if (part.object < 0 || static_cast<std::size_t>(part.object) >= m.objects.size()) continue;
-    if (m.objects[static_cast<std::size_t>(part.object)].name.rfind("tooth46", 0) != 0) continue;
+    if (m.objects[static_cast<std::size_t>(part.object)].name.rfind(tooth, 0) != 0) continue;
     if (!part.whole.triangles.empty()) return part.whole;
     if (!part.cut) return part.mesh;
   }
-  throw Error("enamel slide: the model has no tooth46 (the real-arch scene's) with a display mesh");
+  throw Error("enamel slide: the model has no " + tooth + " (the real-arch scene's) with a display mesh");
 }
 
-Surface slide_surface(const TriangleMesh& mesh) {
+// The triangles with a vertex within kNear of the slide's line (across it, in the plane the line and
+// `inward` span, on either side of the tooth) and along it.
+Surface slide_surface(const TriangleMesh& mesh, const SlideSpec& spec) {
   Surface s;
   s.mesh = &mesh;
   s.vertex_normal = vertex_normals(mesh);
+  const Vec3 along = (spec.to - spec.from).normalized();
+  const Vec3 up = along.cross(spec.inward).normalized();
+  const double length = (spec.to - spec.from).norm();
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     for (const uint32_t v : mesh.triangles[t]) {
-      const Vec3 p = mesh.vertices[v].cast<double>();
-      if (std::abs(p.z() - kSlideZ) < 2.0 && p.y() > kSlideFromY - 2.0 && p.y() < kSlideToY + 2.0) {
+      const Vec3 p = mesh.vertices[v].cast<double>() - spec.from;
+      const double a = p.dot(along);
+      if (std::abs(p.dot(up)) < kNear && a > -kNear && a < length + kNear) {
         s.near.push_back(static_cast<uint32_t>(t));
         break;
       }
@@ -118,20 +120,55 @@ double window_ripple(const std::vector<double>& s, const std::vector<double>& v,
   return worst;
 }
 
+SlideSpec molar_buccal_slide() {
+  SlideSpec spec;
+  spec.tooth = "tooth46";
+  spec.from = Vec3(-40.0, -3.5, 4.75);
+  spec.to = Vec3(-40.0, 1.0, 4.75);
+  spec.inward = Vec3::UnitX();
+  spec.reach = 30.0;
+  return spec;
+}
+
+SlideSpec premolar_buccal_slide() {
+  // 44 (CEJ at (-15.8, -14.7, -1.6) in the real-arch frame, its highest cusp at z = 6.8): its buccal
+  // face looks out of the arch, along (-0.73, -0.68); the slide runs along the arch at z = 3.5, the
+  // crown's middle third, 1.5 mm each side of the long axis, from distal (toward 45) to mesial.
+  SlideSpec spec;
+  spec.tooth = "tooth44";
+  const Vec3 inward = Vec3(0.73, 0.68, 0.0).normalized();
+  const Vec3 along = Vec3(0.68, -0.73, 0.0).normalized();
+  const Vec3 middle = Vec3(-15.8, -14.7, 3.5) - 10.0 * inward;
+  spec.from = middle - 1.5 * along;
+  spec.to = middle + 1.5 * along;
+  spec.inward = inward;
+  spec.reach = 15.0;
+  return spec;
+}
+
 EnamelSlide enamel_slide(const Model& m, const Params& params, double rate_hz) {
-  const TriangleMesh& mesh = tooth46_mesh(m);
-  const Surface surface = slide_surface(mesh);
+  return enamel_slide(m, params, molar_buccal_slide(), rate_hz);
+}
+
+EnamelSlide enamel_slide(const Model& m, const Params& params, const SlideSpec& spec, double rate_hz) {
+  const TriangleMesh& mesh = tooth_mesh(m, spec.tooth);
+  const Surface surface = slide_surface(mesh, spec);
   const double r_tip = m.tool.tip_radius;
   const double press = kEnamelSlideLoad / params.gains.k_trans;  // mm inside the surface
+  const Vec3 direction = (spec.to - spec.from).normalized();
+  const double length = (spec.to - spec.from).norm();
 
-  // The surface points of the slide: where the line along +x at (y, kSlideZ) enters the crown from
-  // the buccal side; the hand follows them `press` mm inside along the interpolated normal.
+  // The surface points of the slide: where each point of the line, moved along `inward`, enters the
+  // crown; the hand follows them `press` mm inside along the interpolated normal.
   std::vector<Vec3> points, normals;
-  for (double y = kSlideFromY; y <= kSlideToY + 1e-9; y += kWaypoint) {
-    const std::optional<double> t = nearest_crossing(mesh, Vec3(-40.0, y, kSlideZ), Vec3::UnitX(), 30.0);
-    if (!t) throw Error("enamel slide: tooth46's surface not found at y = " + std::to_string(y) + " mm");
+  for (double a = 0.0; a <= length + 1e-9; a += kWaypoint) {
+    const Vec3 start = spec.from + a * direction;
+    const std::optional<double> t = nearest_crossing(mesh, start, spec.inward, spec.reach);
+    if (!t)
+      throw Error("enamel slide: " + spec.tooth + "'s surface not found " + std::to_string(a) +
+                  " mm along the slide");
     Vec3 point, normal;
-    surface.nearest(Vec3(-40.0 + *t, y, kSlideZ), &point, &normal);
+    surface.nearest(start + *t * spec.inward, &point, &normal);
     points.push_back(point);
     normals.push_back(normal);
   }
@@ -148,17 +185,17 @@ EnamelSlide enamel_slide(const Model& m, const Params& params, double rate_hz) {
   const std::vector<SimSample> samples = simulate(m, params, path.trajectory(), rate_hz);
   EnamelSlide out;
   out.max_rigid_penetration = max_rigid_penetration(m, samples);
-  // The force in the scan's tangent plane at the graphic tip, along and across the slide (+y laid
-  // into the plane), by how far along the slide (world y) the graphic tip is.
+  // The force in the scan's tangent plane at the graphic tip, along and across the slide (its
+  // direction laid into the plane), by how far along the slide the graphic tip is.
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const SimSample& sample = samples[i];
     if (sample.t < slide_start + kSettle) continue;
     const Vec3 g = sample.out.graphic.p;
-    const double s = g.y() - points.front().y();  // mm along the slide (world y)
+    const double s = (g - points.front()).dot(direction);  // mm along the slide
     Vec3 point, n;
     surface.nearest(g, &point, &n);
     const Vec3 f = sample.out.force;
-    const Vec3 along = (Vec3::UnitY() - Vec3::UnitY().dot(n) * n).normalized();
+    const Vec3 along = (direction - direction.dot(n) * n).normalized();
     const Vec3 across = n.cross(along);
     out.s.push_back(s);
     out.along.push_back(f.dot(along));

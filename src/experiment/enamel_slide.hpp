@@ -1,8 +1,8 @@
 #pragma once
-/// A frictionless slide over scanned enamel (the real arch's tooth 46, its buccal surface): how smooth
-/// a smooth tooth feels. The hand follows the scan's surface 0.6 mm inside it along the surface normal,
-/// so that the coupling (k_trans 1 N/mm) presses with 0.6 N, and moves at 5 mm/s; the tangential force
-/// is the rendered force's part in the scan's tangent plane (the mesh's vertex normals interpolated at
+/// A frictionless slide over scanned enamel (the real arch's tooth 46, its buccal surface, or 44's): how
+/// smooth a smooth tooth feels. The hand follows the scan's surface 0.6 mm inside it along the surface
+/// normal, so that the coupling (k_trans 1 N/mm) presses with 0.6 N, and moves at 5 mm/s; the tangential
+/// force is the rendered force's part in the scan's tangent plane (the mesh's vertex normals interpolated at
 /// the point nearest the graphic tip). `cariesim experiment friction` reports its ripple
 /// (docs/cli.md) and the tests hold it under 0.02 N (docs/step.md, "Force shading").
 #include <string>
@@ -29,9 +29,29 @@ struct EnamelSlide {
   double max_rigid_penetration = 0.0;  ///< mm, of the whole run (experiment/common.hpp's measure)
 };
 
-/// Runs the slide on `real_arch` (a model of the real-arch scene: it needs its object "tooth46" and
-/// that tooth's display mesh) with `params` (make the materials frictionless for the ripple). Throws
-/// cariesim::Error when the model has no tooth46.
+/// Where a slide runs: on the object whose name starts with `tooth`, along the line from `from` to
+/// `to` (world mm, outside the tooth), each point of it moved along `inward` until it meets the scan.
+struct SlideSpec {
+  std::string tooth;
+  Vec3 from = Vec3::Zero();     ///< mm, world
+  Vec3 to = Vec3::Zero();       ///< mm, world
+  Vec3 inward = Vec3::UnitX();  ///< unit, toward the tooth
+  double reach = 30.0;          ///< mm, how far along `inward` the scan is looked for
+};
+
+/// 46's buccal surface (the slide the experiment and the ripple goal are about): at height z = 4.75
+/// mm from y = -3.5 to 1.0 (mesial to distal), where the crown is smooth and convex.
+SlideSpec molar_buccal_slide();
+/// 44's buccal surface (a premolar: a more curved face than 46's): 3 mm along the arch across the
+/// middle of its buccal face, at z = 3.5 mm (5 mm above its cemento-enamel junction).
+SlideSpec premolar_buccal_slide();
+
+/// Runs `spec`'s slide on `real_arch` (a model of the real-arch scene with that tooth and its display
+/// mesh) with `params` (make the materials frictionless for the ripple). Throws cariesim::Error when
+/// the model has no such tooth or the line misses its scan.
+EnamelSlide enamel_slide(const Model& real_arch, const Params& params, const SlideSpec& spec,
+                         double rate_hz = 1000.0);
+/// The molar's slide.
 EnamelSlide enamel_slide(const Model& real_arch, const Params& params, double rate_hz = 1000.0);
 
 /// The largest peak-to-peak over any window of `window` mm of s of the values `v` (s ascending).
