@@ -67,6 +67,18 @@ fs::path write_study(const fs::path& dir, const std::string& debrief, bool gener
   return file;
 }
 
+// A course file in `dir` on `study`, its records in dir/records under `station`.
+fs::path write_course(const fs::path& dir, const fs::path& study, const std::string& name,
+                      const std::string& station) {
+  const fs::path course = dir / "course.yaml";
+  std::ofstream(course) << "course: " << name << "\nstudy: " << study.string()
+                        << "\nrecords: records\nstation: " << station << "\ninstructor: "
+                        << cariesim::training::hash_passphrase("molar probe 46",
+                                                               cariesim::training::kPassphraseMinIterations)
+                        << "\n";
+  return course;
+}
+
 // Pixels of the 3-D view (x < view_w) within `tolerance` of `rgb` in every channel.
 int pixels_near(const Image& image, int view_w, const std::array<int, 3>& rgb, int tolerance) {
   int n = 0;
@@ -100,12 +112,7 @@ class DebriefXvfb : public ::testing::Test {
 TEST_F(DebriefXvfb, AfterEachCaseTheTraineeSeesTheLesionTheMarksAndTheReplay) {
   const fs::path dir = scratch("after-case");
   const fs::path study = write_study(dir, "after-each-case", false);
-  const fs::path course = dir / "course.yaml";
-  std::ofstream(course) << "course: Debrief test\nstudy: " << study.string()
-                        << "\nrecords: records\nstation: xvfb-1\ninstructor: "
-                        << cariesim::training::hash_passphrase("molar probe 46",
-                                                               cariesim::training::kPassphraseMinIterations)
-                        << "\n";
+  const fs::path course = write_course(dir, study, "Debrief test", "xvfb-1");
   const fs::path png = viewer_artefacts() / "debrief-after-case.png";
   fs::remove(png);
   const RunResult r = run_under_xvfb(
@@ -156,12 +163,7 @@ TEST_F(DebriefXvfb, AfterEachCaseTheTraineeSeesTheLesionTheMarksAndTheReplay) {
 TEST_F(DebriefXvfb, EnterContinuesTheDebriefToTheNextCase) {
   const fs::path dir = scratch("enter");
   const fs::path study = write_study(dir, "after-each-case", false, 1.0);
-  const fs::path course = dir / "course.yaml";
-  std::ofstream(course) << "course: Debrief by key\nstudy: " << study.string()
-                        << "\nrecords: records\nstation: xvfb-4\ninstructor: "
-                        << cariesim::training::hash_passphrase("molar probe 46",
-                                                               cariesim::training::kPassphraseMinIterations)
-                        << "\n";
+  const fs::path course = write_course(dir, study, "Debrief by key", "xvfb-4");
   const fs::path script = dir / "keys.txt";
   std::ofstream(script) << "1.5 key Enter   # the first debrief's replay (1 s) has played\n";
   const fs::path png = viewer_artefacts() / "debrief-enter.png";
@@ -186,12 +188,7 @@ TEST_F(DebriefXvfb, EnterContinuesTheDebriefToTheNextCase) {
 TEST_F(DebriefXvfb, AtTheEndEachCaseIsDebriefedAfterTheLast) {
   const fs::path dir = scratch("at-end");
   const fs::path study = write_study(dir, "at-end", false);
-  const fs::path course = dir / "course.yaml";
-  std::ofstream(course) << "course: Debrief at the end\nstudy: " << study.string()
-                        << "\nrecords: records\nstation: xvfb-3\ninstructor: "
-                        << cariesim::training::hash_passphrase("molar probe 46",
-                                                               cariesim::training::kPassphraseMinIterations)
-                        << "\n";
+  const fs::path course = write_course(dir, study, "Debrief at the end", "xvfb-3");
   const fs::path png = viewer_artefacts() / "debrief-at-end.png";
   const RunResult r = run_under_xvfb(
       "run --course '" + course.string() +
@@ -216,12 +213,7 @@ TEST_F(DebriefXvfb, AtTheEndEachCaseIsDebriefedAfterTheLast) {
 TEST_F(DebriefXvfb, WithoutDebriefTheStudyEndsWithoutOne) {
   const fs::path dir = scratch("never");
   const fs::path study = write_study(dir, "", false);
-  const fs::path course = dir / "course.yaml";
-  std::ofstream(course) << "course: Exam\nstudy: " << study.string()
-                        << "\nrecords: records\nstation: xvfb-2\ninstructor: "
-                        << cariesim::training::hash_passphrase("molar probe 46",
-                                                               cariesim::training::kPassphraseMinIterations)
-                        << "\n";
+  const fs::path course = write_course(dir, study, "Exam", "xvfb-2");
   const fs::path png = viewer_artefacts() / "debrief-never.png";
   const RunResult r = run_under_xvfb(
       "run --course '" + course.string() +
