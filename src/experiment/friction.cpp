@@ -30,7 +30,7 @@ struct Run {
 // real arch's 46 (experiment/enamel_slide.hpp) with force shading and, for comparison, without it
 // (the force of the sphere pairs' own normals); the tangential force of both along the slide goes to
 // enamel_slide.csv (the figure enamel_ripple.png), the ripple and the presets' friction at the same
-// load to the summary.
+// load to the summary, with the same slide's ripples on the premolar 44.
 void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, RunChecks& checks) {
   say(options, "friction: building real-arch (the enamel slide)");
   Model arch = build_model(load_scene("real-arch", options.overrides), options.build);
@@ -39,10 +39,14 @@ void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, Ru
   const bool shading = arch.settings.force_shading;  // the step's default
   arch.settings.force_shading = false;
   const EnamelSlide spheres = enamel_slide(arch, frictionless, options.rate_hz);
+  const EnamelSlide premolar_spheres =
+      enamel_slide(arch, frictionless, premolar_buccal_slide(), options.rate_hz);
   arch.settings.force_shading = true;
   const EnamelSlide shaded = enamel_slide(arch, frictionless, options.rate_hz);
+  const EnamelSlide premolar = enamel_slide(arch, frictionless, premolar_buccal_slide(), options.rate_hz);
   checks.rigid_penetration =
-      std::max({checks.rigid_penetration, spheres.max_rigid_penetration, shaded.max_rigid_penetration});
+      std::max({checks.rigid_penetration, spheres.max_rigid_penetration, shaded.max_rigid_penetration,
+                premolar_spheres.max_rigid_penetration, premolar.max_rigid_penetration});
   std::vector<std::vector<double>> rows;
   const auto add = [&](const EnamelSlide& slide, double shaded_flag) {
     for (std::size_t i = 0; i < slide.s.size(); ++i)
@@ -70,8 +74,17 @@ void enamel_ripple(const ExperimentOptions& options, io::JsonWriter& summary, Ru
       .field("mild_friction_N", mild)
       .field("severe_friction_N", severe)
       .field("mild_friction_over_ripple", shaded.ripple > 0.0 ? mild / shaded.ripple : 0.0)
-      .field("csv", "enamel_slide.csv")
+      .field("csv", "enamel_slide.csv");
+  // The same slide on a premolar's more curved face (44, experiment/enamel_slide.hpp).
+  summary.key("premolar")
+      .begin_object()
+      .field("surface", "tooth44 buccal, frictionless")
+      .field("ripple_N", premolar.ripple)
+      .field("ripple_sphere_normals_N", premolar_spheres.ripple)
+      .field("mean_normal_N", premolar.mean_normal)
+      .field("free_steps", premolar.free_steps.size())
       .end_object();
+  summary.end_object();
 }
 
 }  // namespace

@@ -107,6 +107,12 @@ TEST(Experiments, FrictionTrendsOfFigs10And11) {
   EXPECT_LE(number_after(json, "{", "max_force_step_N"), 1.0);
   EXPECT_TRUE(fs::exists(o.out / "summary.json"));
   EXPECT_GT(read_csv(o.out / "friction_static_mus0.80_mud0.30.csv").rows.size(), 1000u);
+  // The enamel slides (docs/step.md, "Force shading"): 46 and the premolar 44 smooth with force
+  // shading, several times rougher with the sphere normals.
+  EXPECT_LT(number_after(json, "\"enamel_slide\"", "ripple_N"), 0.02);
+  EXPECT_GT(number_after(json, "\"enamel_slide\"", "ripple_sphere_normals_N"), 0.05);
+  EXPECT_LT(number_after(json, "\"premolar\"", "ripple_N"), 0.025);
+  EXPECT_GT(number_after(json, "\"premolar\"", "ripple_sphere_normals_N"), 0.05);
 }
 
 // Fig. 12 / §4.2.1: the tangential force jumps into the frictional region and vanishes out of it;

@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <string>
 
 #include "cariesim/common/error.hpp"
 #include "cariesim/training/course.hpp"
+#include "support/files.hpp"
 
 namespace {
 
@@ -162,6 +164,26 @@ TEST(WindowScript, ParsesStepsAndNamesBadLines) {
   EXPECT_THAT(error("1 lock now\n"), HasSubstr("lock takes no argument"));
   EXPECT_THAT(cariesim::viewer::script_key_code("q"), cariesim::viewer::script_key_code("Q"));
   EXPECT_EQ(cariesim::viewer::script_key_code("ab"), -1);
+}
+
+// docs/viewer.md's `--script` example parses as written (it once stopped at its first comment).
+TEST(WindowScript, DocumentedExampleParses) {
+  const std::string doc =
+      cariesim::test::read_text(std::filesystem::path(CARIESIM_SOURCE_DIR) / "docs" / "viewer.md");
+  const std::size_t section = doc.find("`--script FILE` plays");
+  ASSERT_NE(section, std::string::npos) << "docs/viewer.md describes --script";
+  const std::string fence = "```text\n";
+  const std::size_t begin = doc.find(fence, section);
+  ASSERT_NE(begin, std::string::npos);
+  const std::size_t end = doc.find("```", begin + fence.size());
+  ASSERT_NE(end, std::string::npos);
+  const auto steps = parse_script(doc.substr(begin + fence.size(), end - begin - fence.size()), "viewer.md");
+  ASSERT_EQ(steps.size(), 3u);
+  EXPECT_EQ(steps[0].action, "key");
+  EXPECT_EQ(steps[0].argument, "L");
+  EXPECT_EQ(steps[1].action, "passphrase");
+  EXPECT_EQ(steps[1].argument, "not it");
+  EXPECT_EQ(steps[2].action, "lock");
 }
 
 }  // namespace
