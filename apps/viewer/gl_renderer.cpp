@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "cariesim/common/error.hpp"
+#include "cariesim/geometry/nearest.hpp"
 
 namespace cariesim::viewer {
 
@@ -159,17 +160,11 @@ void interleave(std::span<const Vec3f> vertices, std::span<const Vec3f> normals,
 
 std::vector<Vec3f> vertex_normals(std::span<const Vec3f> vertices,
                                   std::span<const std::array<uint32_t, 3>> triangles) {
-  // Sum the (area-weighted) face normals at each corner, then normalise.
-  std::vector<Vec3f> normals(vertices.size(), Vec3f::Zero());
-  for (const auto& tri : triangles) {
-    if (tri[0] >= vertices.size() || tri[1] >= vertices.size() || tri[2] >= vertices.size()) continue;
-    const Vec3f n = (vertices[tri[1]] - vertices[tri[0]]).cross(vertices[tri[2]] - vertices[tri[0]]);
-    for (const uint32_t i : tri) normals[i] += n;
-  }
-  for (Vec3f& n : normals) {
-    const float len = n.norm();
-    n = len > 1e-12f ? Vec3f(n / len) : Vec3f::UnitZ();
-  }
+  // The geometry module's area-weighted normals (nearest.hpp), in float, +z where a vertex has none.
+  const std::vector<Vec3> unit = cariesim::vertex_normals(vertices, triangles);
+  std::vector<Vec3f> normals(unit.size());
+  for (std::size_t i = 0; i < unit.size(); ++i)
+    normals[i] = unit[i].squaredNorm() > 0.0 ? Vec3f(unit[i].cast<float>()) : Vec3f::UnitZ();
   return normals;
 }
 

@@ -10,17 +10,23 @@
 
 namespace cariesim {
 
-std::vector<Vec3> vertex_normals(const TriangleMesh& mesh) {
-  std::vector<Vec3> out(mesh.vertices.size(), Vec3::Zero());
-  for (const auto& tri : mesh.triangles) {
-    const Vec3 a = mesh.vertices[tri[0]].cast<double>(), b = mesh.vertices[tri[1]].cast<double>(),
-               c = mesh.vertices[tri[2]].cast<double>();
+std::vector<Vec3> vertex_normals(std::span<const Vec3f> vertices,
+                                 std::span<const std::array<uint32_t, 3>> triangles) {
+  std::vector<Vec3> out(vertices.size(), Vec3::Zero());
+  for (const auto& tri : triangles) {
+    if (tri[0] >= vertices.size() || tri[1] >= vertices.size() || tri[2] >= vertices.size()) continue;
+    const Vec3 a = vertices[tri[0]].cast<double>(), b = vertices[tri[1]].cast<double>(),
+               c = vertices[tri[2]].cast<double>();
     const Vec3 area_normal = (b - a).cross(c - a);  // twice the area, outward for an outward winding
     for (const uint32_t v : tri) out[v] += area_normal;
   }
   for (Vec3& n : out)
     if (n.norm() > 0) n.normalize();
   return out;
+}
+
+std::vector<Vec3> vertex_normals(const TriangleMesh& mesh) {
+  return vertex_normals(mesh.vertices, mesh.triangles);
 }
 
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double* u, double* v) {

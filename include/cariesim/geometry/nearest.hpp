@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -14,7 +15,9 @@
 namespace cariesim {
 
 /// Unit vertex normals: each vertex's adjacent triangles' normals weighted by their areas (zero for a
-/// vertex no triangle uses).
+/// vertex no triangle uses; a triangle with an index out of range is skipped).
+std::vector<Vec3> vertex_normals(std::span<const Vec3f> vertices,
+                                 std::span<const std::array<uint32_t, 3>> triangles);
 std::vector<Vec3> vertex_normals(const TriangleMesh& mesh);
 
 /// Ericson, Real-Time Collision Detection §5.1.5: the point of triangle abc nearest p, with the
